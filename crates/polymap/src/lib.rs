@@ -12,6 +12,10 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod cost;
+pub mod directions;
+pub mod extract;
 pub mod geometry;
+pub mod merge;
 pub mod map;
 pub mod scan;

@@ -1,0 +1,59 @@
+//! Candidate pairs: segments that come within the proximity gate of each other.
+
+use rstar::primitives::{GeomWithData, Rectangle};
+use rstar::{AABB, RTree};
+
+use crate::geometry::Segment;
+
+/// An R-tree entry: a segment's bounding box with its index.
+pub(crate) type BoxEntry = GeomWithData<Rectangle<[f64; 2]>, usize>;
+
+pub(crate) fn box_entry(s: &Segment, index: usize) -> BoxEntry {
+    let (lo, hi) = s.bounds();
+    GeomWithData::new(Rectangle::from_corners([lo.x, lo.y], [hi.x, hi.y]), index)
+}
+
+pub(crate) fn expanded_envelope(s: &Segment, margin_m: f64) -> AABB<[f64; 2]> {
+    let (lo, hi) = s.bounds();
+    AABB::from_corners([lo.x - margin_m, lo.y - margin_m], [hi.x + margin_m, hi.y + margin_m])
+}
+
+/// All pairs `(i, j)` with `a[i]` and `b[j]` no further than `gap_m` apart (segment to segment),
+/// sorted. Uses an R-tree over `b`; with an infinite gap every pair qualifies.
+///
+/// ```
+/// use polymap::merge::pairs_within;
+/// use polymap::geometry::{Segment, Vec2};
+/// let a = [Segment::new(Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0))];
+/// let b = [Segment::new(Vec2::new(0.0, 0.3), Vec2::new(1.0, 0.3)), Segment::new(Vec2::new(3.0, 0.0), Vec2::new(4.0, 0.0))];
+/// assert_eq!(pairs_within(&a, &b, 0.5), vec![(0, 0)]);
+/// ```
+pub fn pairs_within(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usize, usize)> {
+    if !gap_m.is_finite() {
+        return pairs_within_brute(a, b, gap_m);
+    }
+    let tree = RTree::bulk_load(b.iter().enumerate().map(|(j, s)| box_entry(s, j)).collect());
+    let mut out = Vec::new();
+    for (i, s) in a.iter().enumerate() {
+        for e in tree.locate_in_envelope_intersecting(expanded_envelope(s, gap_m)) {
+            if s.distance_to_segment(&b[e.data]) <= gap_m {
+                out.push((i, e.data));
+            }
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// The obviously correct version of [`pairs_within`]: every pair is tested.
+pub fn pairs_within_brute(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for (i, s) in a.iter().enumerate() {
+        for (j, t) in b.iter().enumerate() {
+            if s.distance_to_segment(t) <= gap_m {
+                out.push((i, j));
+            }
+        }
+    }
+    out
+}

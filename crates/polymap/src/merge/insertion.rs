@@ -1,0 +1,85 @@
+//! Vertex insertion (section 3.1, Fig. 5): endpoints of one map split the nearby segments of the
+//! other, so that features present in only one of them can find partners in pairing.
+
+use rstar::RTree;
+use rstar::AABB;
+
+use super::MergeParams;
+use super::candidates::box_entry;
+use crate::geometry::{Segment, Vec2};
+
+/// A segment after vertex insertion, with the index of the input segment it is part of.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Piece {
+    /// The piece (the whole input segment when it was not split).
+    pub segment: Segment,
+    /// Index of the input segment it came from.
+    pub source: usize,
+}
+
+/// Splits map segments at the projections of scan endpoints and scan segments at the
+/// projections of map endpoints.
+///
+/// For every endpoint `E` of one side, the closest point `p(E)` of the other side is found; when
+/// `|E − p(E)| <= insert_max_distance_m` and `p(E)` is at least `insert_min_piece_m` from the
+/// endpoints of its segment (and from other cuts), the segment is split there into two collinear
+/// pieces. Returns the pieces of `map` and of `scan`, each in input order.
+///
+/// ```
+/// use polymap::merge::{insert_vertices, MergeParams};
+/// use polymap::geometry::{Segment, Vec2};
+/// // Fig. 5: a triangle in the map above a straight scan segment.
+/// let map = [Segment::new(Vec2::new(1.0, 0.0), Vec2::new(1.5, 0.3)), Segment::new(Vec2::new(1.5, 0.3), Vec2::new(2.0, 0.0))];
+/// let scan = [Segment::new(Vec2::new(0.0, 0.0), Vec2::new(3.0, 0.0))];
+/// let (map_pieces, scan_pieces) = insert_vertices(&map, &scan, &MergeParams::default());
+/// assert_eq!(map_pieces.len(), 2);
+/// assert_eq!(scan_pieces.len(), 4); // cut at x = 1.0, 1.5 and 2.0
+/// ```
+pub fn insert_vertices(map: &[Segment], scan: &[Segment], params: &MergeParams) -> (Vec<Piece>, Vec<Piece>) {
+    let scan_cuts = cuts_from(map, scan, params);
+    let map_cuts = cuts_from(scan, map, params);
+    (split_all(map, map_cuts, params), split_all(scan, scan_cuts, params))
+}
+
+/// For each segment of `targets`, the parameters `t` where endpoints of `sources` project.
+fn cuts_from(sources: &[Segment], targets: &[Segment], params: &MergeParams) -> Vec<Vec<f64>> {
+    let mut cuts = vec![Vec::new(); targets.len()];
+    if targets.is_empty() {
+        return cuts;
+    }
+    let r = params.insert_max_distance_m;
+    let tree = RTree::bulk_load(targets.iter().enumerate().map(|(j, s)| box_entry(s, j)).collect());
+    for e in sources.iter().flat_map(|s| [s.start, s.end]) {
+        let env = AABB::from_corners([e.x - r, e.y - r], [e.x + r, e.y + r]);
+        let nearest = tree
+            .locate_in_envelope_intersecting(env)
+            .map(|c| (c.data, targets[c.data].project(e)))
+            .min_by(|a, b| a.1.distance_2.total_cmp(&b.1.distance_2).then(a.0.cmp(&b.0)));
+        if let Some((j, proj)) = nearest.filter(|(_, p)| p.distance_2 <= r * r) {
+            cuts[j].push(proj.t);
+        }
+    }
+    cuts
+}
+
+fn split_all(segments: &[Segment], cuts: Vec<Vec<f64>>, params: &MergeParams) -> Vec<Piece> {
+    let mut out = Vec::with_capacity(segments.len());
+    for (source, (s, mut ts)) in segments.iter().zip(cuts).enumerate() {
+        ts.sort_by(f64::total_cmp);
+        let len = s.length();
+        let min_t = if len > 0.0 { params.insert_min_piece_m / len } else { f64::INFINITY };
+        let mut last = 0.0;
+        for t in ts {
+            if t - last >= min_t && 1.0 - t >= min_t {
+                out.push(Piece { segment: Segment::new(lerp(s, last), lerp(s, t)), source });
+                last = t;
+            }
+        }
+        out.push(Piece { segment: Segment::new(lerp(s, last), s.end), source });
+    }
+    out
+}
+
+fn lerp(s: &Segment, t: f64) -> Vec2 {
+    if t <= 0.0 { s.start } else { s.start + s.vector() * t }
+}

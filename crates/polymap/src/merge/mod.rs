@@ -1,0 +1,82 @@
+//! Merging map and scan (sections 2.1 and 3.1): vertex insertion, restrictive pairing and
+//! simplification, all under the cost `C(L1, L2, ad)` and the current main directions.
+//!
+//! Addition to the paper: a proximity gate. The cost of two collinear segments is zero at any
+//! distance (the collinearity term vanishes and the length ratio only multiplies it), so walls on
+//! one line across a doorway would merge. A pair is only considered when the segments come
+//! within `max_gap_m` of each other (set it to infinity for the paper's behaviour).
+
+mod candidates;
+mod insertion;
+mod pairing;
+mod simplify;
+
+use serde::{Deserialize, Serialize};
+
+use crate::cost::{Merge, cost};
+use crate::geometry::Segment;
+pub use candidates::{pairs_within, pairs_within_brute};
+pub use insertion::{Piece, insert_vertices};
+pub use pairing::{Child, Pairing, restrictive_pairing};
+pub use simplify::{Simplified, SimplifiedSegment, simplify, simplify_brute};
+
+/// Parameters of merging.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MergeParams {
+    /// `K` of the cost function: balances angular against metric terms (metres here).
+    pub k: f64,
+    /// `T_p`: a map/scan pair makes a child when its cost is below this.
+    pub pairing_threshold: f64,
+    /// `T_s`: simplification merges the cheapest pair while its cost is at most this.
+    pub simplify_threshold: f64,
+    /// Most children one segment may have in pairing (the paper: 3).
+    pub max_children: usize,
+    /// Proximity gate (an addition): pairs further apart than this never merge, metres.
+    /// Infinity gives the paper's behaviour.
+    pub max_gap_m: f64,
+    /// Vertex insertion: an endpoint splits the other map's nearest segment when it lies within
+    /// this distance of it, metres.
+    pub insert_max_distance_m: f64,
+    /// Vertex insertion: a projection closer than this to an existing endpoint counts as that
+    /// endpoint (no split), metres.
+    pub insert_min_piece_m: f64,
+    /// An addition: pieces of a segment split by vertex insertion that took part in no pairing
+    /// are joined back into the original segment, so insertion never fragments a segment that
+    /// gained nothing from it.
+    pub rejoin_unpaired_pieces: bool,
+}
+
+impl Default for MergeParams {
+    fn default() -> Self {
+        MergeParams {
+            k: 1.0,
+            pairing_threshold: 0.05,
+            simplify_threshold: 0.05,
+            max_children: 3,
+            max_gap_m: 0.5,
+            insert_max_distance_m: 0.5,
+            insert_min_piece_m: 0.1,
+            rejoin_unpaired_pieces: true,
+        }
+    }
+}
+
+/// The cheapest merge of two segments over the given main directions, if any is defined.
+///
+/// Ties go to the earlier direction, so results do not depend on floating-point accidents of
+/// order. Returns the index of the chosen direction with the merge.
+pub fn best_merge(l1: &Segment, l2: &Segment, directions_rad: &[f64], k: f64) -> Option<(usize, Merge)> {
+    let mut best: Option<(usize, Merge)> = None;
+    for (i, &ad) in directions_rad.iter().enumerate() {
+        if let Some(m) = cost(l1, l2, ad, k).filter(|m| m.cost.is_finite()) {
+            if best.is_none_or(|(_, b)| m.cost < b.cost) {
+                best = Some((i, m));
+            }
+        }
+    }
+    best
+}
+
+#[cfg(test)]
+mod tests;

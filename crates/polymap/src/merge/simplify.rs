@@ -1,0 +1,166 @@
+//! Simplification (section 2.1): repeatedly merge the cheapest pair, over all pairs and main
+//! directions, until the cheapest costs more than `T_s`.
+//!
+//! The fast version keeps the candidate pairs in a binary heap with lazy invalidation (a pair is
+//! dropped when popped if either segment has already merged) and finds the new partners of a
+//! merged segment with an R-tree, so only pairs within the proximity gate are ever costed.
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+use rstar::RTree;
+
+use super::candidates::{box_entry, expanded_envelope};
+use super::{MergeParams, best_merge, pairs_within};
+use crate::geometry::Segment;
+
+/// One segment of the simplified set.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimplifiedSegment {
+    /// The segment.
+    pub segment: Segment,
+    /// `Some(i)` when this is input segment `i`, untouched; `None` for a merge result.
+    pub input: Option<usize>,
+}
+
+/// The result of simplification.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Simplified {
+    /// Surviving segments: untouched inputs in input order, then merge results in creation order.
+    pub segments: Vec<SimplifiedSegment>,
+    /// Number of merges made.
+    pub merges: usize,
+}
+
+/// A candidate merge in the heap, ordered by cost, then by the pair's indices.
+#[derive(Debug, Clone, Copy)]
+struct Candidate {
+    cost: f64,
+    i: usize,
+    j: usize,
+    segment: Segment,
+}
+
+impl Candidate {
+    fn key(&self) -> (f64, usize, usize) {
+        (self.cost, self.i, self.j)
+    }
+}
+
+impl PartialEq for Candidate {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other) == Ordering::Equal
+    }
+}
+impl Eq for Candidate {}
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        let (a, b) = (self.key(), other.key());
+        // Reversed for a min-heap.
+        b.0.total_cmp(&a.0).then(b.1.cmp(&a.1)).then(b.2.cmp(&a.2))
+    }
+}
+
+/// Simplifies a set of segments (any classes) under the main directions.
+///
+/// ```
+/// use polymap::merge::{simplify, MergeParams};
+/// use polymap::geometry::{Segment, Vec2};
+/// let bundle = [
+///     Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0)),
+///     Segment::new(Vec2::new(0.5, 0.02), Vec2::new(2.5, 0.02)),
+///     Segment::new(Vec2::new(0.0, 2.0), Vec2::new(0.0, 4.0)),
+/// ];
+/// let s = simplify(&bundle, &[0.0, std::f64::consts::FRAC_PI_2], &MergeParams::default());
+/// assert_eq!(s.merges, 1);
+/// assert_eq!(s.segments.len(), 2);
+/// ```
+pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams) -> Simplified {
+    let mut segs: Vec<Segment> = input.to_vec();
+    let mut alive = vec![true; segs.len()];
+    let mut heap = BinaryHeap::new();
+    let push = |heap: &mut BinaryHeap<Candidate>, segs: &[Segment], i: usize, j: usize| {
+        if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
+            if m.cost <= params.simplify_threshold {
+                heap.push(Candidate { cost: m.cost, i, j, segment: m.segment });
+            }
+        }
+    };
+    for (i, j) in pairs_within(&segs, &segs, params.max_gap_m) {
+        if i < j {
+            push(&mut heap, &segs, i, j);
+        }
+    }
+    let mut tree = RTree::bulk_load(segs.iter().enumerate().map(|(i, s)| box_entry(s, i)).collect());
+    let mut merges = 0;
+    while let Some(c) = heap.pop() {
+        if !alive[c.i] || !alive[c.j] {
+            continue;
+        }
+        alive[c.i] = false;
+        alive[c.j] = false;
+        tree.remove(&box_entry(&segs[c.i], c.i));
+        tree.remove(&box_entry(&segs[c.j], c.j));
+        let k = segs.len();
+        segs.push(c.segment);
+        alive.push(true);
+        merges += 1;
+        let mut partners: Vec<usize> = tree
+            .locate_in_envelope_intersecting(expanded_envelope(&c.segment, params.max_gap_m))
+            .map(|e| e.data)
+            .filter(|&o| segs[o].distance_to_segment(&c.segment) <= params.max_gap_m)
+            .collect();
+        partners.sort_unstable();
+        for o in partners {
+            push(&mut heap, &segs, o, k);
+        }
+        tree.insert(box_entry(&c.segment, k));
+    }
+    collect(input.len(), &segs, &alive, merges)
+}
+
+/// The obviously correct O(n³) version of [`simplify`], as the oracle for tests.
+pub fn simplify_brute(input: &[Segment], directions_rad: &[f64], params: &MergeParams) -> Simplified {
+    let mut segs: Vec<Segment> = input.to_vec();
+    let mut alive = vec![true; segs.len()];
+    let mut merges = 0;
+    loop {
+        let mut best: Option<Candidate> = None;
+        for i in 0..segs.len() {
+            for j in i + 1..segs.len() {
+                if !alive[i] || !alive[j] || segs[i].distance_to_segment(&segs[j]) > params.max_gap_m {
+                    continue;
+                }
+                if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
+                    let c = Candidate { cost: m.cost, i, j, segment: m.segment };
+                    if m.cost <= params.simplify_threshold && best.is_none_or(|b| c > b) {
+                        best = Some(c);
+                    }
+                }
+            }
+        }
+        let Some(c) = best else { break };
+        alive[c.i] = false;
+        alive[c.j] = false;
+        segs.push(c.segment);
+        alive.push(true);
+        merges += 1;
+    }
+    collect(input.len(), &segs, &alive, merges)
+}
+
+fn collect(n_input: usize, segs: &[Segment], alive: &[bool], merges: usize) -> Simplified {
+    let segments = segs
+        .iter()
+        .zip(alive)
+        .enumerate()
+        .filter(|(_, (_, a))| **a)
+        .map(|(i, (s, _))| SimplifiedSegment { segment: *s, input: (i < n_input).then_some(i) })
+        .collect();
+    Simplified { segments, merges }
+}
