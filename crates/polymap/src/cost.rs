@@ -37,8 +37,13 @@ impl DirectedLine {
         if len1 + len2 <= 0.0 {
             return None;
         }
-        let offset_m = (len1 * normal.dot(l1.midpoint()) + len2 * normal.dot(l2.midpoint())) / (len1 + len2);
-        Some(DirectedLine { direction, normal, offset_m })
+        let offset_m =
+            (len1 * normal.dot(l1.midpoint()) + len2 * normal.dot(l2.midpoint())) / (len1 + len2);
+        Some(DirectedLine {
+            direction,
+            normal,
+            offset_m,
+        })
     }
 
     /// Distance of a point from the line, metres.
@@ -106,9 +111,13 @@ pub fn cost(l1: &Segment, l2: &Segment, ad_rad: f64, k: f64) -> Option<Merge> {
     let lr = ms.length() / projected_m;
     let d1 = ld.distance_m(l1.start) + ld.distance_m(l1.end);
     let d2 = ld.distance_m(l2.start) + ld.distance_m(l2.end);
-    let term = |len: f64, d: f64, cos_a: f64| (len + 1.0) * d / (1.0 + k * cos_a) - len * d / (1.0 + k);
+    let term =
+        |len: f64, d: f64, cos_a: f64| (len + 1.0) * d / (1.0 + k * cos_a) - len * d / (1.0 + k);
     let c = lr * (term(len1, d1, cos_a1) + term(len2, d2, cos_a2)) / (1.0 + k * cos_a12);
-    Some(Merge { segment: ms, cost: c })
+    Some(Merge {
+        segment: ms,
+        cost: c,
+    })
 }
 
 #[cfg(test)]
@@ -131,7 +140,10 @@ mod tests {
         let l2 = seg(0.0, 0.4, 1.0, 0.4);
         let ld = DirectedLine::between(&l1, &l2, 0.0).unwrap();
         assert!(close(ld.offset_m, 0.1));
-        assert!(close(ld.distance_m(l1.midpoint()) * 3.0, ld.distance_m(l2.midpoint()) * 1.0));
+        assert!(close(
+            ld.distance_m(l1.midpoint()) * 3.0,
+            ld.distance_m(l2.midpoint()) * 1.0
+        ));
     }
 
     /// Parallel, unequal lengths, partly overlapping: computed by hand.
@@ -182,7 +194,12 @@ mod tests {
     #[test]
     fn cost_prefers_the_matching_main_direction() {
         let l1 = seg(0.0, 0.0, FRAC_PI_3.cos() * 2.0, FRAC_PI_3.sin() * 2.0);
-        let l2 = seg(0.05, 0.0, 0.05 + FRAC_PI_3.cos() * 2.0, FRAC_PI_3.sin() * 2.0);
+        let l2 = seg(
+            0.05,
+            0.0,
+            0.05 + FRAC_PI_3.cos() * 2.0,
+            FRAC_PI_3.sin() * 2.0,
+        );
         let along = cost(&l1, &l2, FRAC_PI_3, 1.0).unwrap().cost;
         let across = cost(&l1, &l2, 0.0, 1.0).unwrap().cost;
         assert!(along < across / 10.0, "{along} vs {across}");

@@ -73,7 +73,10 @@ pub struct MainDirections {
 /// assert!(md.directions_rad[0].min(std::f64::consts::PI - md.directions_rad[0]) < 0.01);
 /// assert!((md.directions_rad[1] - std::f64::consts::FRAC_PI_2).abs() < 0.01);
 /// ```
-pub fn main_directions<'a>(segments: impl Iterator<Item = &'a Segment> + Clone, params: &DirectionParams) -> MainDirections {
+pub fn main_directions<'a>(
+    segments: impl Iterator<Item = &'a Segment> + Clone,
+    params: &DirectionParams,
+) -> MainDirections {
     let bins = params.bins.max(1);
     let bin_width = PI / bins as f64;
     let mut raw = vec![0.0; bins];
@@ -84,9 +87,21 @@ pub fn main_directions<'a>(segments: impl Iterator<Item = &'a Segment> + Clone, 
     let peaks = significant_peaks(&histogram_m, params);
     let directions_rad = peaks
         .into_iter()
-        .map(|b| refine_peak((b as f64 + 0.5) * bin_width, segments.clone(), params.refine_half_width_deg.to_radians().max(bin_width / 2.0)))
+        .map(|b| {
+            refine_peak(
+                (b as f64 + 0.5) * bin_width,
+                segments.clone(),
+                params
+                    .refine_half_width_deg
+                    .to_radians()
+                    .max(bin_width / 2.0),
+            )
+        })
         .collect();
-    MainDirections { directions_rad, histogram_m }
+    MainDirections {
+        directions_rad,
+        histogram_m,
+    }
 }
 
 fn bin_of(direction_rad: f64, bin_width: f64, bins: usize) -> usize {
@@ -99,7 +114,11 @@ fn smooth_cyclic(raw: &[f64], window: usize) -> Vec<f64> {
     let half = (window.max(1) / 2) as isize;
     let odd_extra = if window.max(1) % 2 == 0 { 1 } else { 0 };
     (0..n)
-        .map(|i| (i - half + odd_extra..=i + half).map(|j| raw[j.rem_euclid(n) as usize]).sum())
+        .map(|i| {
+            (i - half + odd_extra..=i + half)
+                .map(|j| raw[j.rem_euclid(n) as usize])
+                .sum()
+        })
         .collect()
 }
 
@@ -120,7 +139,9 @@ fn significant_peaks(h: &[f64], params: &DirectionParams) -> Vec<usize> {
     let min_sep = params.min_separation_deg.to_radians();
     let mut kept: Vec<usize> = Vec::new();
     for p in peaks {
-        let far = kept.iter().all(|&k| angle_between_directions_rad(p as f64 * bin_width, k as f64 * bin_width) > min_sep);
+        let far = kept.iter().all(|&k| {
+            angle_between_directions_rad(p as f64 * bin_width, k as f64 * bin_width) > min_sep
+        });
         if far {
             kept.push(p);
         }
@@ -129,7 +150,11 @@ fn significant_peaks(h: &[f64], params: &DirectionParams) -> Vec<usize> {
 }
 
 /// Length-weighted circular mean (on doubled angles) of the directions near `centre_rad`.
-fn refine_peak<'a>(centre_rad: f64, segments: impl Iterator<Item = &'a Segment>, half_width_rad: f64) -> f64 {
+fn refine_peak<'a>(
+    centre_rad: f64,
+    segments: impl Iterator<Item = &'a Segment>,
+    half_width_rad: f64,
+) -> f64 {
     let (mut c, mut s) = (0.0, 0.0);
     for seg in segments {
         let a = seg.direction_rad();
@@ -139,7 +164,11 @@ fn refine_peak<'a>(centre_rad: f64, segments: impl Iterator<Item = &'a Segment>,
             s += w * (2.0 * a).sin();
         }
     }
-    if c == 0.0 && s == 0.0 { undirected_angle_rad(centre_rad) } else { undirected_angle_rad(0.5 * s.atan2(c)) }
+    if c == 0.0 && s == 0.0 {
+        undirected_angle_rad(centre_rad)
+    } else {
+        undirected_angle_rad(0.5 * s.atan2(c))
+    }
 }
 
 #[cfg(test)]
@@ -159,9 +188,15 @@ mod tests {
         let md = main_directions(segs.iter(), &DirectionParams::default());
         assert_eq!(md.directions_rad.len(), 1);
         let d = md.directions_rad[0];
-        assert!(angle_between_directions_rad(d, 0.0) < 1e-9, "{}", d.to_degrees());
+        assert!(
+            angle_between_directions_rad(d, 0.0) < 1e-9,
+            "{}",
+            d.to_degrees()
+        );
         // The window of 5 around bin 1 holds bins 179, 0, 1, 2, 3; around bin 177 only 179.
-        assert!((md.histogram_m[1] - 6.0).abs() < 1e-12 && (md.histogram_m[177] - 3.0).abs() < 1e-12);
+        assert!(
+            (md.histogram_m[1] - 6.0).abs() < 1e-12 && (md.histogram_m[177] - 3.0).abs() < 1e-12
+        );
     }
 
     #[test]

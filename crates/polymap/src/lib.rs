@@ -12,10 +12,17 @@
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod align;
+pub mod config;
 pub mod cost;
 pub mod directions;
 pub mod extract;
 pub mod geometry;
-pub mod merge;
 pub mod map;
+pub mod mapper;
+pub mod merge;
+pub mod polyline;
 pub mod scan;
+
+#[cfg(test)]
+mod testutil;

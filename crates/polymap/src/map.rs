@@ -1,8 +1,11 @@
-//! The global map's element type.
+//! The global map `G_t`: segments with their birth scan, a spatial index, and the queue of
+//! recent births that the main directions are computed from.
 
+use rstar::RTree;
+use rstar::primitives::{GeomWithData, Rectangle};
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Segment;
+use crate::geometry::{Segment, Vec2};
 
 /// One segment of the global map, in the map frame, with its provenance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -11,4 +14,183 @@ pub struct MapSegment {
     pub segment: Segment,
     /// Index (0-based, in processing order) of the scan whose merge created this segment.
     pub born_scan: u32,
+}
+
+/// A handle to a map segment; stale handles (of removed segments) are detected.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct SegmentId {
+    slot: u32,
+    generation: u32,
+}
+
+type Entry = GeomWithData<Rectangle<[f64; 2]>, SegmentId>;
+
+/// The global map.
+///
+/// ```
+/// use polymap::map::{GlobalMap, MapSegment};
+/// use polymap::geometry::{Segment, Vec2};
+/// let mut map = GlobalMap::default();
+/// let id = map.insert(MapSegment { segment: Segment::new(Vec2::ZERO, Vec2::X), born_scan: 0 });
+/// assert_eq!(map.len(), 1);
+/// assert_eq!(map.query(Vec2::new(-1.0, -1.0), Vec2::new(0.5, 0.5)), vec![id]);
+/// map.remove(id);
+/// assert!(map.is_empty() && map.get(id).is_none());
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct GlobalMap {
+    slots: Vec<(u32, Option<MapSegment>)>,
+    free: Vec<u32>,
+    tree: RTree<Entry>,
+    recent: Vec<(u32, SegmentId)>,
+    len: usize,
+}
+
+impl GlobalMap {
+    /// Number of segments.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True when the map has no segments.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Adds a segment and returns its handle.
+    pub fn insert(&mut self, s: MapSegment) -> SegmentId {
+        let id = match self.free.pop() {
+            Some(slot) => {
+                let entry = &mut self.slots[slot as usize];
+                entry.0 += 1;
+                entry.1 = Some(s);
+                SegmentId {
+                    slot,
+                    generation: entry.0,
+                }
+            }
+            None => {
+                self.slots.push((0, Some(s)));
+                SegmentId {
+                    slot: (self.slots.len() - 1) as u32,
+                    generation: 0,
+                }
+            }
+        };
+        self.tree.insert(entry(&s.segment, id));
+        self.recent.push((s.born_scan, id));
+        self.len += 1;
+        id
+    }
+
+    /// Removes a segment; `None` when the handle is stale.
+    pub fn remove(&mut self, id: SegmentId) -> Option<MapSegment> {
+        let slot = self.slots.get_mut(id.slot as usize)?;
+        if slot.0 != id.generation {
+            return None;
+        }
+        let s = slot.1.take()?;
+        self.tree.remove(&entry(&s.segment, id));
+        self.free.push(id.slot);
+        self.len -= 1;
+        Some(s)
+    }
+
+    /// The segment behind a handle, if it is still in the map.
+    pub fn get(&self, id: SegmentId) -> Option<&MapSegment> {
+        let slot = self.slots.get(id.slot as usize)?;
+        if slot.0 == id.generation {
+            slot.1.as_ref()
+        } else {
+            None
+        }
+    }
+
+    /// Handles of the segments whose bounding boxes meet the box `[lo, hi]` (map frame, metres),
+    /// in handle order.
+    pub fn query(&self, lo: Vec2, hi: Vec2) -> Vec<SegmentId> {
+        let env = rstar::AABB::from_corners([lo.x, lo.y], [hi.x, hi.y]);
+        let mut ids: Vec<SegmentId> = self
+            .tree
+            .locate_in_envelope_intersecting(env)
+            .map(|e| e.data)
+            .collect();
+        ids.sort_unstable();
+        ids
+    }
+
+    /// All segments, in handle order.
+    pub fn iter(&self) -> impl Iterator<Item = (SegmentId, &MapSegment)> {
+        self.slots
+            .iter()
+            .enumerate()
+            .filter_map(|(i, (generation, s))| {
+                s.as_ref().map(|s| {
+                    (
+                        SegmentId {
+                            slot: i as u32,
+                            generation: *generation,
+                        },
+                        s,
+                    )
+                })
+            })
+    }
+
+    /// The segments born at or after scan `since` (`G_{t-1}(tm)` for `since = t − tm`).
+    ///
+    /// Forgets older births and removed segments as a side effect, so the cost stays
+    /// proportional to the recent part of the map.
+    pub fn born_since(&mut self, since: u32) -> Vec<Segment> {
+        let slots = &self.slots;
+        let live = |id: &SegmentId| {
+            slots[id.slot as usize].0 == id.generation && slots[id.slot as usize].1.is_some()
+        };
+        self.recent.retain(|(b, id)| *b >= since && live(id));
+        self.recent
+            .iter()
+            .filter_map(|(_, id)| self.get(*id))
+            .map(|s| s.segment)
+            .collect()
+    }
+}
+
+fn entry(s: &Segment, id: SegmentId) -> Entry {
+    let (lo, hi) = s.bounds();
+    GeomWithData::new(Rectangle::from_corners([lo.x, lo.y], [hi.x, hi.y]), id)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn ms(x: f64, born: u32) -> MapSegment {
+        MapSegment {
+            segment: Segment::new(Vec2::new(x, 0.0), Vec2::new(x + 1.0, 0.0)),
+            born_scan: born,
+        }
+    }
+
+    #[test]
+    fn stale_handles_are_detected_after_slot_reuse() {
+        let mut map = GlobalMap::default();
+        let a = map.insert(ms(0.0, 0));
+        map.remove(a);
+        let b = map.insert(ms(5.0, 1));
+        assert_ne!(a, b);
+        assert!(map.get(a).is_none() && map.remove(a).is_none());
+        assert_eq!(map.get(b).map(|s| s.born_scan), Some(1));
+    }
+
+    #[test]
+    fn born_since_returns_only_recent_live_segments() {
+        let mut map = GlobalMap::default();
+        map.insert(ms(0.0, 0));
+        let dead = map.insert(ms(1.0, 3));
+        map.insert(ms(2.0, 5));
+        map.remove(dead);
+        let recent = map.born_since(2);
+        assert_eq!(recent.len(), 1);
+        assert_eq!(recent[0].start.x, 2.0);
+    }
 }

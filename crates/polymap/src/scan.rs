@@ -23,7 +23,10 @@ impl Stamp {
     /// assert_eq!(Stamp::from_seconds(1.5).text, "1.500000000");
     /// ```
     pub fn from_seconds(seconds: f64) -> Self {
-        Stamp { seconds, text: format!("{seconds:.9}") }
+        Stamp {
+            seconds,
+            text: format!("{seconds:.9}"),
+        }
     }
 }
 
@@ -57,7 +60,10 @@ impl RangeScan {
 
     /// Number of valid returns.
     pub fn valid_count(&self) -> usize {
-        self.ranges_m.iter().filter(|&&r| self.is_valid_range(r)).count()
+        self.ranges_m
+            .iter()
+            .filter(|&&r| self.is_valid_range(r))
+            .count()
     }
 
     /// Writes the valid returns into `out` as points in the robot frame, in beam order.
@@ -91,11 +97,15 @@ impl RangeScan {
         let (mut s, mut c) = (s0, c0);
         for (i, &r) in self.ranges_m.iter().enumerate() {
             if self.is_valid_range(r) {
-                out.push(self.robot_from_laser.transform_point(Vec2::new(c * r, s * r)));
+                out.push(
+                    self.robot_from_laser
+                        .transform_point(Vec2::new(c * r, s * r)),
+                );
             }
             let (s1, c1) = (s * cd + c * sd, c * cd - s * sd);
             if i % 64 == 63 {
-                let (sx, cx) = (self.angle_min_rad + (i + 1) as f64 * self.angle_increment_rad).sin_cos();
+                let (sx, cx) =
+                    (self.angle_min_rad + (i + 1) as f64 * self.angle_increment_rad).sin_cos();
                 s = sx;
                 c = cx;
             } else {

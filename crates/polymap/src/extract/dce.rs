@@ -29,7 +29,11 @@ pub fn simplify_run(points: &[Vec2], tolerance_m: f64, vertices: &mut Vec<usize>
     let mut curve = Curve::new(n);
     let mut heap = BinaryHeap::with_capacity(2 * n);
     for i in 1..n - 1 {
-        heap.push(Entry { relevance: relevance(points, i - 1, i, i + 1), version: 0, index: i });
+        heap.push(Entry {
+            relevance: relevance(points, i - 1, i, i + 1),
+            version: 0,
+            index: i,
+        });
     }
     let tolerance_2 = tolerance_m * tolerance_m;
     while let Some(e) = heap.pop() {
@@ -45,7 +49,11 @@ pub fn simplify_run(points: &[Vec2], tolerance_m: f64, vertices: &mut Vec<usize>
             if v != 0 && v != n - 1 {
                 curve.version[v] += 1;
                 let r = relevance(points, curve.prev[v], v, curve.next[v]);
-                heap.push(Entry { relevance: r, version: curve.version[v], index: v });
+                heap.push(Entry {
+                    relevance: r,
+                    version: curve.version[v],
+                    index: v,
+                });
             }
         }
     }
@@ -93,7 +101,9 @@ fn relevance(points: &[Vec2], u: usize, v: usize, w: usize) -> f64 {
 /// True when all points strictly between `a` and `b` lie within the tolerance of edge `a`–`b`.
 fn within_tolerance(points: &[Vec2], a: usize, b: usize, tolerance_2: f64) -> bool {
     let edge = Segment::new(points[a], points[b]);
-    points[a + 1..b].iter().all(|p| edge.distance_2_to_point(*p) <= tolerance_2)
+    points[a + 1..b]
+        .iter()
+        .all(|p| edge.distance_2_to_point(*p) <= tolerance_2)
 }
 
 /// A heap entry: the smallest relevance pops first; ties go to the lower index.
@@ -121,6 +131,9 @@ impl PartialOrd for Entry {
 impl Ord for Entry {
     fn cmp(&self, other: &Self) -> Ordering {
         // Reversed: BinaryHeap is a max-heap.
-        other.relevance.total_cmp(&self.relevance).then_with(|| other.index.cmp(&self.index))
+        other
+            .relevance
+            .total_cmp(&self.relevance)
+            .then_with(|| other.index.cmp(&self.index))
     }
 }

@@ -50,6 +50,13 @@ pub fn fit_line(points: &[Vec2]) -> Option<LineFit> {
     let angle = 0.5 * (2.0 * sxy).atan2(sxx - syy);
     let direction = Vec2::new(angle.cos(), angle.sin());
     let normal = direction.perp();
-    let ss: f64 = points.iter().map(|p| (*p - centroid).dot(normal).powi(2)).sum();
-    Some(LineFit { centroid, direction, rms_m: (ss / n).sqrt() })
+    let ss: f64 = points
+        .iter()
+        .map(|p| (*p - centroid).dot(normal).powi(2))
+        .sum();
+    Some(LineFit {
+        centroid,
+        direction,
+        rms_m: (ss / n).sqrt(),
+    })
 }

@@ -73,7 +73,11 @@ pub struct ExtractedSegment {
 /// assert_eq!(segs.len(), 2);
 /// assert!((segs[0].segment.length() - 2.0).abs() < 0.01);
 /// ```
-pub fn extract_segments(points: &[Vec2], angle_increment_rad: f64, params: &ExtractParams) -> Vec<ExtractedSegment> {
+pub fn extract_segments(
+    points: &[Vec2],
+    angle_increment_rad: f64,
+    params: &ExtractParams,
+) -> Vec<ExtractedSegment> {
     let mut out = Vec::new();
     let mut vertices = Vec::new();
     for run in split_runs(points, angle_increment_rad, params) {
@@ -85,7 +89,10 @@ pub fn extract_segments(points: &[Vec2], angle_increment_rad: f64, params: &Extr
         for w in vertices.windows(2) {
             let (a, b) = (w[0], w[1]);
             if let Some(s) = refit(run_points, a, b, params) {
-                out.push(ExtractedSegment { first_point: run.start + a, ..s });
+                out.push(ExtractedSegment {
+                    first_point: run.start + a,
+                    ..s
+                });
             }
         }
     }
@@ -93,12 +100,18 @@ pub fn extract_segments(points: &[Vec2], angle_increment_rad: f64, params: &Extr
 }
 
 /// Index ranges of runs of points without a range jump.
-fn split_runs(points: &[Vec2], angle_increment_rad: f64, params: &ExtractParams) -> Vec<std::ops::Range<usize>> {
+fn split_runs(
+    points: &[Vec2],
+    angle_increment_rad: f64,
+    params: &ExtractParams,
+) -> Vec<std::ops::Range<usize>> {
     let mut runs = Vec::new();
     let mut start = 0;
     for i in 1..points.len() {
         let r = points[i - 1].length().min(points[i].length());
-        let jump_m = params.jump_min_m.max(params.jump_beam_factor * r * angle_increment_rad.abs());
+        let jump_m = params
+            .jump_min_m
+            .max(params.jump_beam_factor * r * angle_increment_rad.abs());
         if points[i].distance_squared(points[i - 1]) > jump_m * jump_m {
             runs.push(start..i);
             start = i;
@@ -111,13 +124,21 @@ fn split_runs(points: &[Vec2], angle_increment_rad: f64, params: &ExtractParams)
 }
 
 /// Refits the points `a..=b` of a run; `None` when the support is too small or short.
-fn refit(run_points: &[Vec2], a: usize, b: usize, params: &ExtractParams) -> Option<ExtractedSegment> {
+fn refit(
+    run_points: &[Vec2],
+    a: usize,
+    b: usize,
+    params: &ExtractParams,
+) -> Option<ExtractedSegment> {
     let support = &run_points[a..=b];
     if support.len() < params.min_points {
         return None;
     }
     let fit = fit_line(support)?;
-    let segment = Segment::new(fit.project(support[0]), fit.project(support[support.len() - 1]));
+    let segment = Segment::new(
+        fit.project(support[0]),
+        fit.project(support[support.len() - 1]),
+    );
     (segment.length() >= params.min_length_m).then_some(ExtractedSegment {
         segment,
         first_point: a,

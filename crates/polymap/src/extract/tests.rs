@@ -2,7 +2,9 @@ use super::*;
 use crate::geometry::Segment;
 
 fn wall(from: Vec2, to: Vec2, n: usize) -> Vec<Vec2> {
-    (0..n).map(|i| from + (to - from) * (i as f64 / (n - 1) as f64)).collect()
+    (0..n)
+        .map(|i| from + (to - from) * (i as f64 / (n - 1) as f64))
+        .collect()
 }
 
 /// Deterministic pseudo-noise in [-a, a].
@@ -13,8 +15,11 @@ fn wiggle(i: usize, a: f64) -> f64 {
 
 #[test]
 fn straight_noisy_wall_is_one_segment() {
-    let pts: Vec<Vec2> =
-        wall(Vec2::new(3.0, -2.0), Vec2::new(3.0, 2.0), 80).into_iter().enumerate().map(|(i, p)| p + Vec2::new(wiggle(i, 0.015), 0.0)).collect();
+    let pts: Vec<Vec2> = wall(Vec2::new(3.0, -2.0), Vec2::new(3.0, 2.0), 80)
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| p + Vec2::new(wiggle(i, 0.015), 0.0))
+        .collect();
     let segs = extract_segments(&pts, 0.0175, &ExtractParams::default());
     assert_eq!(segs.len(), 1);
     let s = segs[0].segment;
@@ -35,15 +40,23 @@ fn range_jump_splits_runs() {
 fn short_and_sparse_pieces_are_dropped() {
     let params = ExtractParams::default();
     let pts = wall(Vec2::new(2.0, 0.0), Vec2::new(2.0, 0.1), 10);
-    assert!(extract_segments(&pts, 0.0175, &params).is_empty(), "too short");
+    assert!(
+        extract_segments(&pts, 0.0175, &params).is_empty(),
+        "too short"
+    );
     let pts = wall(Vec2::new(2.0, 0.0), Vec2::new(2.0, 0.28), 3);
-    assert!(extract_segments(&pts, 0.0175, &params).is_empty(), "too few points");
+    assert!(
+        extract_segments(&pts, 0.0175, &params).is_empty(),
+        "too few points"
+    );
 }
 
 #[test]
 fn every_point_is_within_tolerance_of_the_simplified_curve() {
     // A zig-zag of amplitude 0.2 m must keep its corners.
-    let pts: Vec<Vec2> = (0..60).map(|i| Vec2::new(i as f64 * 0.1, if (i / 10) % 2 == 0 { 0.0 } else { 0.2 })).collect();
+    let pts: Vec<Vec2> = (0..60)
+        .map(|i| Vec2::new(i as f64 * 0.1, if (i / 10) % 2 == 0 { 0.0 } else { 0.2 }))
+        .collect();
     let mut v = Vec::new();
     simplify_run(&pts, 0.05, &mut v);
     for w in v.windows(2) {

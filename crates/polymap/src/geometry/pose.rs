@@ -27,11 +27,19 @@ pub struct Pose2 {
 
 impl Pose2 {
     /// The identity transform.
-    pub const IDENTITY: Pose2 = Pose2 { x_m: 0.0, y_m: 0.0, theta_rad: 0.0 };
+    pub const IDENTITY: Pose2 = Pose2 {
+        x_m: 0.0,
+        y_m: 0.0,
+        theta_rad: 0.0,
+    };
 
     /// A pose from translation (metres) and rotation (radians); the angle is normalised.
     pub fn new(x_m: f64, y_m: f64, theta_rad: f64) -> Self {
-        Pose2 { x_m, y_m, theta_rad: normalize_angle_rad(theta_rad) }
+        Pose2 {
+            x_m,
+            y_m,
+            theta_rad: normalize_angle_rad(theta_rad),
+        }
     }
 
     /// The translation part, metres.

@@ -68,9 +68,17 @@ impl Segment {
     pub fn project(&self, p: Vec2) -> SegmentProjection {
         let v = self.vector();
         let len_2 = v.length_squared();
-        let t = if len_2 > 0.0 { ((p - self.start).dot(v) / len_2).clamp(0.0, 1.0) } else { 0.0 };
+        let t = if len_2 > 0.0 {
+            ((p - self.start).dot(v) / len_2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         let point = self.start + v * t;
-        SegmentProjection { point, t, distance_2: (p - point).length_squared() }
+        SegmentProjection {
+            point,
+            t,
+            distance_2: (p - point).length_squared(),
+        }
     }
 
     /// Squared distance from a point, m².
@@ -120,7 +128,10 @@ impl Segment {
 
     /// The segment mapped through a pose (`a_from_b` applied to a segment in frame `b`).
     pub fn transformed(&self, a_from_b: &Pose2) -> Segment {
-        Segment::new(a_from_b.transform_point(self.start), a_from_b.transform_point(self.end))
+        Segment::new(
+            a_from_b.transform_point(self.start),
+            a_from_b.transform_point(self.end),
+        )
     }
 
     /// The axis-aligned bounding box as `(min, max)` corners.

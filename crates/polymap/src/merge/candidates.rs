@@ -15,7 +15,10 @@ pub(crate) fn box_entry(s: &Segment, index: usize) -> BoxEntry {
 
 pub(crate) fn expanded_envelope(s: &Segment, margin_m: f64) -> AABB<[f64; 2]> {
     let (lo, hi) = s.bounds();
-    AABB::from_corners([lo.x - margin_m, lo.y - margin_m], [hi.x + margin_m, hi.y + margin_m])
+    AABB::from_corners(
+        [lo.x - margin_m, lo.y - margin_m],
+        [hi.x + margin_m, hi.y + margin_m],
+    )
 }
 
 /// All pairs `(i, j)` with `a[i]` and `b[j]` no further than `gap_m` apart (segment to segment),

@@ -1,8 +1,8 @@
 //! Vertex insertion (section 3.1, Fig. 5): endpoints of one map split the nearby segments of the
 //! other, so that features present in only one of them can find partners in pairing.
 
-use rstar::RTree;
 use rstar::AABB;
+use rstar::RTree;
 
 use super::MergeParams;
 use super::candidates::box_entry;
@@ -35,10 +35,17 @@ pub struct Piece {
 /// assert_eq!(map_pieces.len(), 2);
 /// assert_eq!(scan_pieces.len(), 4); // cut at x = 1.0, 1.5 and 2.0
 /// ```
-pub fn insert_vertices(map: &[Segment], scan: &[Segment], params: &MergeParams) -> (Vec<Piece>, Vec<Piece>) {
+pub fn insert_vertices(
+    map: &[Segment],
+    scan: &[Segment],
+    params: &MergeParams,
+) -> (Vec<Piece>, Vec<Piece>) {
     let scan_cuts = cuts_from(map, scan, params);
     let map_cuts = cuts_from(scan, map, params);
-    (split_all(map, map_cuts, params), split_all(scan, scan_cuts, params))
+    (
+        split_all(map, map_cuts, params),
+        split_all(scan, scan_cuts, params),
+    )
 }
 
 /// For each segment of `targets`, the parameters `t` where endpoints of `sources` project.
@@ -48,13 +55,23 @@ fn cuts_from(sources: &[Segment], targets: &[Segment], params: &MergeParams) -> 
         return cuts;
     }
     let r = params.insert_max_distance_m;
-    let tree = RTree::bulk_load(targets.iter().enumerate().map(|(j, s)| box_entry(s, j)).collect());
+    let tree = RTree::bulk_load(
+        targets
+            .iter()
+            .enumerate()
+            .map(|(j, s)| box_entry(s, j))
+            .collect(),
+    );
     for e in sources.iter().flat_map(|s| [s.start, s.end]) {
         let env = AABB::from_corners([e.x - r, e.y - r], [e.x + r, e.y + r]);
         let nearest = tree
             .locate_in_envelope_intersecting(env)
             .map(|c| (c.data, targets[c.data].project(e)))
-            .min_by(|a, b| a.1.distance_2.total_cmp(&b.1.distance_2).then(a.0.cmp(&b.0)));
+            .min_by(|a, b| {
+                a.1.distance_2
+                    .total_cmp(&b.1.distance_2)
+                    .then(a.0.cmp(&b.0))
+            });
         if let Some((j, proj)) = nearest.filter(|(_, p)| p.distance_2 <= r * r) {
             cuts[j].push(proj.t);
         }
@@ -67,19 +84,33 @@ fn split_all(segments: &[Segment], cuts: Vec<Vec<f64>>, params: &MergeParams) ->
     for (source, (s, mut ts)) in segments.iter().zip(cuts).enumerate() {
         ts.sort_by(f64::total_cmp);
         let len = s.length();
-        let min_t = if len > 0.0 { params.insert_min_piece_m / len } else { f64::INFINITY };
+        let min_t = if len > 0.0 {
+            params.insert_min_piece_m / len
+        } else {
+            f64::INFINITY
+        };
         let mut last = 0.0;
         for t in ts {
             if t - last >= min_t && 1.0 - t >= min_t {
-                out.push(Piece { segment: Segment::new(lerp(s, last), lerp(s, t)), source });
+                out.push(Piece {
+                    segment: Segment::new(lerp(s, last), lerp(s, t)),
+                    source,
+                });
                 last = t;
             }
         }
-        out.push(Piece { segment: Segment::new(lerp(s, last), s.end), source });
+        out.push(Piece {
+            segment: Segment::new(lerp(s, last), s.end),
+            source,
+        });
     }
     out
 }
 
 fn lerp(s: &Segment, t: f64) -> Vec2 {
-    if t <= 0.0 { s.start } else { s.start + s.vector() * t }
+    if t <= 0.0 {
+        s.start
+    } else {
+        s.start + s.vector() * t
+    }
 }

@@ -66,7 +66,12 @@ impl Default for MergeParams {
 ///
 /// Ties go to the earlier direction, so results do not depend on floating-point accidents of
 /// order. Returns the index of the chosen direction with the merge.
-pub fn best_merge(l1: &Segment, l2: &Segment, directions_rad: &[f64], k: f64) -> Option<(usize, Merge)> {
+pub fn best_merge(
+    l1: &Segment,
+    l2: &Segment,
+    directions_rad: &[f64],
+    k: f64,
+) -> Option<(usize, Merge)> {
     let mut best: Option<(usize, Merge)> = None;
     for (i, &ad) in directions_rad.iter().enumerate() {
         if let Some(m) = cost(l1, l2, ad, k).filter(|m| m.cost.is_finite()) {

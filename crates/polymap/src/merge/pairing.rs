@@ -45,15 +45,30 @@ pub struct Pairing {
 /// assert!((p.children[0].segment.start.y - 0.02).abs() < 1e-12);
 /// assert_eq!(p.scan_is_parent, vec![true, false]);
 /// ```
-pub fn restrictive_pairing(c1: &[Segment], c2: &[Segment], directions_rad: &[f64], params: &MergeParams) -> Pairing {
+pub fn restrictive_pairing(
+    c1: &[Segment],
+    c2: &[Segment],
+    directions_rad: &[f64],
+    params: &MergeParams,
+) -> Pairing {
     let mut candidates: Vec<Child> = pairs_within(c1, c2, params.max_gap_m)
         .into_iter()
         .filter_map(|(i, j)| {
             let (dir, m) = best_merge(&c1[i], &c2[j], directions_rad, params.k)?;
-            (m.cost < params.pairing_threshold).then_some(Child { segment: m.segment, cost: m.cost, map_parent: i, scan_parent: j, direction: dir })
+            (m.cost < params.pairing_threshold).then_some(Child {
+                segment: m.segment,
+                cost: m.cost,
+                map_parent: i,
+                scan_parent: j,
+                direction: dir,
+            })
         })
         .collect();
-    candidates.sort_by(|a, b| a.cost.total_cmp(&b.cost).then((a.map_parent, a.scan_parent).cmp(&(b.map_parent, b.scan_parent))));
+    candidates.sort_by(|a, b| {
+        a.cost
+            .total_cmp(&b.cost)
+            .then((a.map_parent, a.scan_parent).cmp(&(b.map_parent, b.scan_parent)))
+    });
     let mut n1 = vec![0usize; c1.len()];
     let mut n2 = vec![0usize; c2.len()];
     let mut children = Vec::new();
@@ -64,5 +79,9 @@ pub fn restrictive_pairing(c1: &[Segment], c2: &[Segment], directions_rad: &[f64
             children.push(c);
         }
     }
-    Pairing { children, map_is_parent: n1.iter().map(|&n| n > 0).collect(), scan_is_parent: n2.iter().map(|&n| n > 0).collect() }
+    Pairing {
+        children,
+        map_is_parent: n1.iter().map(|&n| n > 0).collect(),
+        scan_is_parent: n2.iter().map(|&n| n > 0).collect(),
+    }
 }

@@ -87,7 +87,12 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
     let push = |heap: &mut BinaryHeap<Candidate>, segs: &[Segment], i: usize, j: usize| {
         if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
             if m.cost <= params.simplify_threshold {
-                heap.push(Candidate { cost: m.cost, i, j, segment: m.segment });
+                heap.push(Candidate {
+                    cost: m.cost,
+                    i,
+                    j,
+                    segment: m.segment,
+                });
             }
         }
     };
@@ -96,7 +101,12 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
             push(&mut heap, &segs, i, j);
         }
     }
-    let mut tree = RTree::bulk_load(segs.iter().enumerate().map(|(i, s)| box_entry(s, i)).collect());
+    let mut tree = RTree::bulk_load(
+        segs.iter()
+            .enumerate()
+            .map(|(i, s)| box_entry(s, i))
+            .collect(),
+    );
     let mut merges = 0;
     while let Some(c) = heap.pop() {
         if !alive[c.i] || !alive[c.j] {
@@ -125,7 +135,11 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
 }
 
 /// The obviously correct O(n³) version of [`simplify`], as the oracle for tests.
-pub fn simplify_brute(input: &[Segment], directions_rad: &[f64], params: &MergeParams) -> Simplified {
+pub fn simplify_brute(
+    input: &[Segment],
+    directions_rad: &[f64],
+    params: &MergeParams,
+) -> Simplified {
     let mut segs: Vec<Segment> = input.to_vec();
     let mut alive = vec![true; segs.len()];
     let mut merges = 0;
@@ -133,11 +147,19 @@ pub fn simplify_brute(input: &[Segment], directions_rad: &[f64], params: &MergeP
         let mut best: Option<Candidate> = None;
         for i in 0..segs.len() {
             for j in i + 1..segs.len() {
-                if !alive[i] || !alive[j] || segs[i].distance_to_segment(&segs[j]) > params.max_gap_m {
+                if !alive[i]
+                    || !alive[j]
+                    || segs[i].distance_to_segment(&segs[j]) > params.max_gap_m
+                {
                     continue;
                 }
                 if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
-                    let c = Candidate { cost: m.cost, i, j, segment: m.segment };
+                    let c = Candidate {
+                        cost: m.cost,
+                        i,
+                        j,
+                        segment: m.segment,
+                    };
                     if m.cost <= params.simplify_threshold && best.is_none_or(|b| c > b) {
                         best = Some(c);
                     }
@@ -160,7 +182,10 @@ fn collect(n_input: usize, segs: &[Segment], alive: &[bool], merges: usize) -> S
         .zip(alive)
         .enumerate()
         .filter(|(_, (_, a))| **a)
-        .map(|(i, (s, _))| SimplifiedSegment { segment: *s, input: (i < n_input).then_some(i) })
+        .map(|(i, (s, _))| SimplifiedSegment {
+            segment: *s,
+            input: (i < n_input).then_some(i),
+        })
         .collect();
     Simplified { segments, merges }
 }

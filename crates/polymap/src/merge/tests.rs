@@ -22,15 +22,33 @@ fn direction_error_deg(s: &Segment, ad: f64) -> f64 {
 /// A tent of two 1 m segments at ±60° with its left foot at `(x, y)`.
 fn tent(x: f64, y: f64) -> [Segment; 2] {
     let top = Vec2::new(x + 0.5, y + 0.75f64.sqrt());
-    [Segment::new(Vec2::new(x, y), top), Segment::new(top, Vec2::new(x + 1.0, y))]
+    [
+        Segment::new(Vec2::new(x, y), top),
+        Segment::new(top, Vec2::new(x + 1.0, y)),
+    ]
 }
 
 /// Pairing then simplification, as the mapper runs them.
-fn pair_and_simplify(c1: &[Segment], c2: &[Segment], dirs: &[f64], p: &MergeParams) -> (Pairing, Simplified) {
+fn pair_and_simplify(
+    c1: &[Segment],
+    c2: &[Segment],
+    dirs: &[f64],
+    p: &MergeParams,
+) -> (Pairing, Simplified) {
     let pairing = restrictive_pairing(c1, c2, dirs, p);
     let mut a_t: Vec<Segment> = pairing.children.iter().map(|c| c.segment).collect();
-    a_t.extend(c1.iter().zip(&pairing.map_is_parent).filter(|(_, p)| !**p).map(|(s, _)| *s));
-    a_t.extend(c2.iter().zip(&pairing.scan_is_parent).filter(|(_, p)| !**p).map(|(s, _)| *s));
+    a_t.extend(
+        c1.iter()
+            .zip(&pairing.map_is_parent)
+            .filter(|(_, p)| !**p)
+            .map(|(s, _)| *s),
+    );
+    a_t.extend(
+        c2.iter()
+            .zip(&pairing.scan_is_parent)
+            .filter(|(_, p)| !**p)
+            .map(|(s, _)| *s),
+    );
     let s = simplify(&a_t, dirs, p);
     (pairing, s)
 }
@@ -40,7 +58,10 @@ fn pair_and_simplify(c1: &[Segment], c2: &[Segment], dirs: &[f64], p: &MergePara
 /// segment per wall, each exactly along its main direction.
 #[test]
 fn fig2_pairing_and_simplification_follow_main_directions() {
-    let c1 = [seg(0.0, 0.0, 3.0, 0.0), Segment::new(Vec2::new(3.0, 0.0), Vec2::new(3.0 + 1.0, 3f64.sqrt()))];
+    let c1 = [
+        seg(0.0, 0.0, 3.0, 0.0),
+        Segment::new(Vec2::new(3.0, 0.0), Vec2::new(3.0 + 1.0, 3f64.sqrt())),
+    ];
     let moved = Pose2::new(0.03, 0.04, 1.5f64.to_radians());
     let c2: Vec<Segment> = c1.iter().map(|s| s.transformed(&moved)).collect();
     let p = MergeParams::default();
@@ -50,9 +71,16 @@ fn fig2_pairing_and_simplification_follow_main_directions() {
         assert!(direction_error_deg(&c.segment, dirs60()[c.direction]) < 1e-9);
     }
     assert_eq!(simplified.segments.len(), 2, "{:?}", simplified.segments);
-    let mut found: Vec<f64> = simplified.segments.iter().map(|s| s.segment.direction_rad().to_degrees()).collect();
+    let mut found: Vec<f64> = simplified
+        .segments
+        .iter()
+        .map(|s| s.segment.direction_rad().to_degrees())
+        .collect();
     found.sort_by(f64::total_cmp);
-    assert!(found[0].abs() < 1e-9 && (found[1] - 60.0).abs() < 1e-9, "{found:?}");
+    assert!(
+        found[0].abs() < 1e-9 && (found[1] - 60.0).abs() < 1e-9,
+        "{found:?}"
+    );
 }
 
 /// Fig. 3: a straight wall and a tent in both map and scan. Both features survive: the tent's
@@ -66,9 +94,16 @@ fn fig3_both_shape_features_are_preserved() {
     let (pairing, simplified) = pair_and_simplify(&c1, &c2, &dirs60(), &MergeParams::default());
     assert_eq!(pairing.children.len(), 3);
     assert_eq!(simplified.segments.len(), 3);
-    let mut found: Vec<f64> = simplified.segments.iter().map(|s| s.segment.direction_rad().to_degrees()).collect();
+    let mut found: Vec<f64> = simplified
+        .segments
+        .iter()
+        .map(|s| s.segment.direction_rad().to_degrees())
+        .collect();
     found.sort_by(f64::total_cmp);
-    assert!(found[0].abs() < 1e-9 && (found[1] - 60.0).abs() < 1e-9 && (found[2] - 120.0).abs() < 1e-9, "{found:?}");
+    assert!(
+        found[0].abs() < 1e-9 && (found[1] - 60.0).abs() < 1e-9 && (found[2] - 120.0).abs() < 1e-9,
+        "{found:?}"
+    );
 }
 
 /// Fig. 5 geometry in metres: a straight 2.5 m scan segment 5 cm below a map wall that carries a
@@ -77,7 +112,12 @@ fn fig3_both_shape_features_are_preserved() {
 fn fig5() -> (Vec<Segment>, Vec<Segment>) {
     let (h, sep) = (0.06, 0.05);
     let w = h / 62f64.to_radians().tan();
-    let map = vec![seg(0.0, 0.0, 1.0, 0.0), seg(1.0, 0.0, 1.0 + w, h), seg(1.0 + w, h, 1.0 + 2.0 * w, 0.0), seg(1.0 + 2.0 * w, 0.0, 2.5, 0.0)];
+    let map = vec![
+        seg(0.0, 0.0, 1.0, 0.0),
+        seg(1.0, 0.0, 1.0 + w, h),
+        seg(1.0 + w, h, 1.0 + 2.0 * w, 0.0),
+        seg(1.0 + 2.0 * w, 0.0, 2.5, 0.0),
+    ];
     let scan = vec![seg(0.0, -sep, 2.5, -sep)];
     (map, scan)
 }
@@ -86,9 +126,16 @@ fn fig5() -> (Vec<Segment>, Vec<Segment>) {
 #[test]
 fn fig5_scan_segment_is_split_at_projected_vertices() {
     let (map, scan) = fig5();
-    let p = MergeParams { insert_min_piece_m: 0.005, ..MergeParams::default() };
+    let p = MergeParams {
+        insert_min_piece_m: 0.005,
+        ..MergeParams::default()
+    };
     let (map_pieces, scan_pieces) = insert_vertices(&map, &scan, &p);
-    assert_eq!(map_pieces.len(), 4, "map unchanged: the scan's endpoints project onto map endpoints");
+    assert_eq!(
+        map_pieces.len(),
+        4,
+        "map unchanged: the scan's endpoints project onto map endpoints"
+    );
     let xs: Vec<f64> = scan_pieces.iter().map(|q| q.segment.end.x).collect();
     let w = 0.06 / 62f64.to_radians().tan();
     let expect = [1.0, 1.0 + w, 1.0 + 2.0 * w, 2.5];
@@ -96,7 +143,11 @@ fn fig5_scan_segment_is_split_at_projected_vertices() {
     for (x, e) in xs.iter().zip(expect) {
         assert!((x - e).abs() < 1e-12, "{xs:?}");
     }
-    assert!(scan_pieces.iter().all(|q| q.source == 0 && (q.segment.start.y + 0.05).abs() < 1e-12));
+    assert!(
+        scan_pieces
+            .iter()
+            .all(|q| q.source == 0 && (q.segment.start.y + 0.05).abs() < 1e-12)
+    );
 }
 
 /// Fig. 6: with main directions 0°, ±62°, lowering T_p goes from only children (every segment
@@ -104,23 +155,51 @@ fn fig5_scan_segment_is_split_at_projected_vertices() {
 #[test]
 fn fig6_lowering_tp_goes_from_only_children_to_none() {
     let (map, scan) = fig5();
-    let p = MergeParams { insert_min_piece_m: 0.005, ..MergeParams::default() };
+    let p = MergeParams {
+        insert_min_piece_m: 0.005,
+        ..MergeParams::default()
+    };
     let (mp, sp) = insert_vertices(&map, &scan, &p);
     let c1: Vec<Segment> = mp.iter().map(|q| q.segment).collect();
     let c2: Vec<Segment> = sp.iter().map(|q| q.segment).collect();
     let dirs = [deg(0.0), deg(62.0), deg(-62.0)];
     let mut children_by_tp = Vec::new();
     for tp in [0.05, 0.04, 0.03, 0.01] {
-        let pairing = restrictive_pairing(&c1, &c2, &dirs, &MergeParams { pairing_threshold: tp, ..p.clone() });
-        let parents = pairing.map_is_parent.iter().chain(&pairing.scan_is_parent).filter(|x| **x).count();
+        let pairing = restrictive_pairing(
+            &c1,
+            &c2,
+            &dirs,
+            &MergeParams {
+                pairing_threshold: tp,
+                ..p.clone()
+            },
+        );
+        let parents = pairing
+            .map_is_parent
+            .iter()
+            .chain(&pairing.scan_is_parent)
+            .filter(|x| **x)
+            .count();
         children_by_tp.push((tp, pairing.children.len(), parents));
     }
     let (_, first_children, first_parents) = children_by_tp[0];
-    assert!(first_children > 0 && first_parents == c1.len() + c2.len(), "only children at T_p = 0.05: {children_by_tp:?}");
+    assert!(
+        first_children > 0 && first_parents == c1.len() + c2.len(),
+        "only children at T_p = 0.05: {children_by_tp:?}"
+    );
     let (_, _, some_parents) = children_by_tp[2];
-    assert!(some_parents > 0 && some_parents < first_parents, "only some pair at T_p = 0.03: {children_by_tp:?}");
-    assert_eq!(children_by_tp[3].1, 0, "no children at T_p = 0.01: {children_by_tp:?}");
-    assert!(children_by_tp.windows(2).all(|w| w[0].1 >= w[1].1), "monotone: {children_by_tp:?}");
+    assert!(
+        some_parents > 0 && some_parents < first_parents,
+        "only some pair at T_p = 0.03: {children_by_tp:?}"
+    );
+    assert_eq!(
+        children_by_tp[3].1, 0,
+        "no children at T_p = 0.01: {children_by_tp:?}"
+    );
+    assert!(
+        children_by_tp.windows(2).all(|w| w[0].1 >= w[1].1),
+        "monotone: {children_by_tp:?}"
+    );
 }
 
 #[test]
@@ -129,14 +208,23 @@ fn proximity_gate_keeps_collinear_walls_apart_across_a_doorway() {
     let right = seg(3.9, 0.0, 7.0, 0.0);
     let gated = simplify(&[left, right], &[0.0], &MergeParams::default());
     assert_eq!(gated.merges, 0);
-    let paper = simplify(&[left, right], &[0.0], &MergeParams { max_gap_m: f64::INFINITY, ..MergeParams::default() });
+    let paper = simplify(
+        &[left, right],
+        &[0.0],
+        &MergeParams {
+            max_gap_m: f64::INFINITY,
+            ..MergeParams::default()
+        },
+    );
     assert_eq!(paper.merges, 1, "without the gate the doorway closes");
 }
 
 #[test]
 fn a_parent_has_at_most_max_children() {
     let c1 = [seg(0.0, 0.0, 4.0, 0.0)];
-    let c2: Vec<Segment> = (0..5).map(|i| seg(i as f64 * 0.8, 0.02, i as f64 * 0.8 + 0.7, 0.02)).collect();
+    let c2: Vec<Segment> = (0..5)
+        .map(|i| seg(i as f64 * 0.8, 0.02, i as f64 * 0.8 + 0.7, 0.02))
+        .collect();
     let p = restrictive_pairing(&c1, &c2, &[0.0], &MergeParams::default());
     assert_eq!(p.children.len(), 3);
     // The cheapest three are kept: the costs are sorted.
@@ -147,8 +235,15 @@ fn a_parent_has_at_most_max_children() {
 fn no_main_direction_means_no_merging() {
     let c1 = [seg(0.0, 0.0, 4.0, 0.0)];
     let c2 = [seg(0.0, 0.01, 4.0, 0.01)];
-    assert!(restrictive_pairing(&c1, &c2, &[], &MergeParams::default()).children.is_empty());
-    assert_eq!(simplify(&[c1[0], c2[0]], &[], &MergeParams::default()).merges, 0);
+    assert!(
+        restrictive_pairing(&c1, &c2, &[], &MergeParams::default())
+            .children
+            .is_empty()
+    );
+    assert_eq!(
+        simplify(&[c1[0], c2[0]], &[], &MergeParams::default()).merges,
+        0
+    );
 }
 
 mod prop {
@@ -156,10 +251,20 @@ mod prop {
     use proptest::prelude::*;
 
     fn segment_near_directions() -> impl Strategy<Value = Segment> {
-        (0.0f64..6.0, 0.0f64..6.0, 0.2f64..3.0, 0usize..3, -0.05f64..0.05).prop_map(|(x, y, len, d, noise)| {
-            let a = [0.0, PI / 3.0, 2.0 * PI / 3.0][d] + noise;
-            Segment::new(Vec2::new(x, y), Vec2::new(x + len * a.cos(), y + len * a.sin()))
-        })
+        (
+            0.0f64..6.0,
+            0.0f64..6.0,
+            0.2f64..3.0,
+            0usize..3,
+            -0.05f64..0.05,
+        )
+            .prop_map(|(x, y, len, d, noise)| {
+                let a = [0.0, PI / 3.0, 2.0 * PI / 3.0][d] + noise;
+                Segment::new(
+                    Vec2::new(x, y),
+                    Vec2::new(x + len * a.cos(), y + len * a.sin()),
+                )
+            })
     }
 
     proptest! {
@@ -186,4 +291,3 @@ mod prop {
         }
     }
 }
-

@@ -1,0 +1,119 @@
+//! Alignment of a new scan to the map by ICP (section 2: correspondence and alignment).
+//!
+//! Two correspondence schemes share one robust Gauss–Newton solver over point-to-line
+//! constraints (a point-to-point pair is two such constraints, along x and along y):
+//!
+//! - [`AlignMethod::Endpoints`], the paper's: every segment endpoint of the scan is paired with
+//!   its closest point of the map, and every map endpoint in the scan's neighbourhood with its
+//!   closest point of the scan.
+//! - [`AlignMethod::PointToSegment`], an addition: every scan point (thinned to a minimum
+//!   spacing) is paired with the nearest map segment and constrained along its normal. Points
+//!   whose closest map point is an endpoint reached from beyond the segment's end see unmapped
+//!   space and are left out.
+//!
+//! Both reject pairs beyond a correspondence gate that shrinks over the iterations and weight
+//! the rest with a Cauchy kernel. A weak prior pulls towards the initial guess so that
+//! directions the scene does not constrain (a long corridor) stay where the motion prior put
+//! them instead of drifting.
+
+mod endpoints;
+mod nearest;
+mod point_to_segment;
+mod solver;
+
+use serde::{Deserialize, Serialize};
+
+use crate::geometry::Pose2;
+pub use endpoints::align_endpoints;
+pub use nearest::{NearestSegment, SegmentIndex};
+pub use point_to_segment::{align_points, thin_points};
+pub use solver::Constraint;
+
+/// Which correspondences drive ICP.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum AlignMethod {
+    /// The paper's: segment endpoints to closest points, both ways.
+    Endpoints,
+    /// Scan points to map segments, along the segment normals (an addition).
+    PointToSegment,
+}
+
+/// Parameters of alignment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AlignParams {
+    /// The correspondence scheme.
+    pub method: AlignMethod,
+    /// Most ICP iterations.
+    pub max_iterations: usize,
+    /// Correspondence gate in the first iteration, metres.
+    pub initial_gate_m: f64,
+    /// The gate shrinks by `gate_decay` every iteration down to this, metres.
+    pub final_gate_m: f64,
+    /// Factor applied to the gate after every iteration, in (0, 1].
+    pub gate_decay: f64,
+    /// Scale of the Cauchy kernel, metres.
+    pub robust_scale_m: f64,
+    /// Point-to-segment: scan points closer than this to the last kept one are skipped, metres.
+    pub point_spacing_m: f64,
+    /// Point-to-segment: a point may project this far beyond a segment's end and still count,
+    /// metres.
+    pub endpoint_slack_m: f64,
+    /// Weight of the pull towards the initial guess, per metre² and per radian², relative to one
+    /// fully weighted correspondence. Zero turns it off.
+    pub prior_weight: f64,
+    /// Iteration stops when the update is below this translation, metres...
+    pub converged_translation_m: f64,
+    /// ...and this rotation, degrees.
+    pub converged_rotation_deg: f64,
+    /// With fewer correspondences than this the initial guess is kept.
+    pub min_correspondences: usize,
+}
+
+impl Default for AlignParams {
+    fn default() -> Self {
+        AlignParams {
+            method: AlignMethod::PointToSegment,
+            max_iterations: 30,
+            initial_gate_m: 1.0,
+            final_gate_m: 0.25,
+            gate_decay: 0.8,
+            robust_scale_m: 0.05,
+            point_spacing_m: 0.05,
+            endpoint_slack_m: 0.1,
+            prior_weight: 0.01,
+            converged_translation_m: 1e-4,
+            converged_rotation_deg: 0.005,
+            min_correspondences: 8,
+        }
+    }
+}
+
+impl AlignParams {
+    /// The correspondence gate at iteration `i` (0-based), metres.
+    pub fn gate_m(&self, i: usize) -> f64 {
+        (self.initial_gate_m * self.gate_decay.clamp(0.0, 1.0).powi(i.min(1000) as i32))
+            .max(self.final_gate_m)
+    }
+}
+
+/// The outcome of one alignment, with diagnostics.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct AlignResult {
+    /// The estimated pose of the robot in the map.
+    pub map_from_robot: Pose2,
+    /// Iterations run.
+    pub iterations: usize,
+    /// Correspondences in the last iteration.
+    pub correspondences: usize,
+    /// Correspondences in the last iteration with a residual within the robust scale.
+    pub inliers: usize,
+    /// RMS residual of the last iteration's correspondences, metres.
+    pub residual_rms_m: f64,
+    /// True when the update fell below the convergence thresholds.
+    pub converged: bool,
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,155 @@
+//! One robust Gauss–Newton solver for point-to-line constraints, and the ICP loop around it.
+
+use glam::{DMat3, DVec3};
+
+use super::{AlignParams, AlignResult};
+use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
+
+/// A point of the scan that should lie on a line of the map.
+///
+/// The residual is `normal · (map_from_robot · p_in_robot − q_in_map)`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Constraint {
+    /// The scan point, robot frame.
+    pub p_in_robot: Vec2,
+    /// A point of the target line, map frame.
+    pub q_in_map: Vec2,
+    /// Unit normal of the target line, map frame.
+    pub normal: Vec2,
+}
+
+impl Constraint {
+    /// The residual at a pose, metres.
+    pub fn residual_m(&self, map_from_robot: &Pose2) -> f64 {
+        self.normal
+            .dot(map_from_robot.transform_point(self.p_in_robot) - self.q_in_map)
+    }
+
+    /// A point-to-point pair as two constraints, along x and along y.
+    pub fn point_pair(p_in_robot: Vec2, q_in_map: Vec2) -> [Constraint; 2] {
+        [Vec2::X, Vec2::Y].map(|normal| Constraint {
+            p_in_robot,
+            q_in_map,
+            normal,
+        })
+    }
+}
+
+/// Residual statistics of a set of constraints at one pose.
+struct Stats {
+    rms_m: f64,
+    inliers: usize,
+}
+
+fn stats(constraints: &[Constraint], pose: &Pose2, robust_scale_m: f64) -> Stats {
+    let mut ss = 0.0;
+    let mut inliers = 0;
+    for c in constraints {
+        let r = c.residual_m(pose);
+        ss += r * r;
+        inliers += usize::from(r.abs() <= robust_scale_m);
+    }
+    let rms_m = if constraints.is_empty() {
+        0.0
+    } else {
+        (ss / constraints.len() as f64).sqrt()
+    };
+    Stats { rms_m, inliers }
+}
+
+/// One Gauss–Newton step with Cauchy weights and a prior towards `guess`; `None` when the
+/// normal equations are singular.
+fn step(
+    constraints: &[Constraint],
+    pose: &Pose2,
+    guess: &Pose2,
+    params: &AlignParams,
+) -> Option<Pose2> {
+    let mut h = DMat3::ZERO;
+    let mut g = DVec3::ZERO;
+    let k_2 = params.robust_scale_m * params.robust_scale_m;
+    for c in constraints {
+        let rp = pose.rotate(c.p_in_robot);
+        let r = c.normal.dot(rp + pose.translation() - c.q_in_map);
+        let j = DVec3::new(c.normal.x, c.normal.y, c.normal.dot(rp.perp()));
+        let w = 1.0 / (1.0 + r * r / k_2);
+        h += outer(j, j * w);
+        g += j * (w * r);
+    }
+    let lambda = params.prior_weight;
+    h += DMat3::from_diagonal(DVec3::splat(lambda));
+    g += DVec3::new(
+        pose.x_m - guess.x_m,
+        pose.y_m - guess.y_m,
+        normalize_angle_rad(pose.theta_rad - guess.theta_rad),
+    ) * lambda;
+    if h.determinant().abs() < 1e-12 {
+        return None;
+    }
+    let delta = -(h.inverse() * g);
+    delta.is_finite().then(|| {
+        Pose2::new(
+            pose.x_m + delta.x,
+            pose.y_m + delta.y,
+            pose.theta_rad + delta.z,
+        )
+    })
+}
+
+fn outer(a: DVec3, b: DVec3) -> DMat3 {
+    DMat3::from_cols(a * b.x, a * b.y, a * b.z)
+}
+
+/// Runs ICP from `guess`: `gather` fills the constraints for a pose and a gate (metres).
+pub(crate) fn run_icp(
+    guess: Pose2,
+    params: &AlignParams,
+    mut gather: impl FnMut(&Pose2, f64, &mut Vec<Constraint>),
+) -> AlignResult {
+    let mut pose = guess;
+    let mut constraints = Vec::new();
+    let mut result = AlignResult {
+        map_from_robot: guess,
+        iterations: 0,
+        correspondences: 0,
+        inliers: 0,
+        residual_rms_m: 0.0,
+        converged: false,
+    };
+    for i in 0..params.max_iterations {
+        constraints.clear();
+        gather(&pose, params.gate_m(i), &mut constraints);
+        let s = stats(&constraints, &pose, params.robust_scale_m);
+        result = AlignResult {
+            map_from_robot: pose,
+            iterations: i,
+            correspondences: constraints.len(),
+            inliers: s.inliers,
+            residual_rms_m: s.rms_m,
+            converged: false,
+        };
+        if constraints.len() < params.min_correspondences {
+            return result;
+        }
+        let Some(next) = step(&constraints, &pose, &guess, params) else {
+            return result;
+        };
+        let moved_m = (next.translation() - pose.translation()).length();
+        let turned_deg = normalize_angle_rad(next.theta_rad - pose.theta_rad)
+            .abs()
+            .to_degrees();
+        pose = next;
+        result.map_from_robot = pose;
+        result.iterations = i + 1;
+        // Only stop once the gate has shrunk to its final size: early stops at a wide gate
+        // would keep outliers' pull.
+        if moved_m < params.converged_translation_m
+            && turned_deg < params.converged_rotation_deg
+            && params.gate_m(i) <= params.final_gate_m
+        {
+            result.converged = true;
+            break;
+        }
+    }
+    result
+}

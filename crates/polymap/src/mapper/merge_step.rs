@@ -1,0 +1,176 @@
+//! One merge of an aligned scan into the map near it.
+
+use serde::{Deserialize, Serialize};
+
+use super::bounds;
+use crate::config::Config;
+use crate::geometry::{Segment, Vec2};
+use crate::map::{GlobalMap, MapSegment, SegmentId};
+use crate::merge::{Piece, insert_vertices, restrictive_pairing, simplify};
+
+/// Counts through one merge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct MergeDiagnostics {
+    /// Map segments near the scan that took part (class C1 before vertex insertion).
+    pub local_map_segments: usize,
+    /// Map pieces after vertex insertion.
+    pub map_pieces: usize,
+    /// Scan pieces after vertex insertion.
+    pub scan_pieces: usize,
+    /// Children made by restrictive pairing.
+    pub children: usize,
+    /// Segments of `A_t` (near the scan) after pairing.
+    pub after_pairing: usize,
+    /// Merges made by simplification.
+    pub merges: usize,
+    /// Segments near the scan after simplification.
+    pub after_simplification: usize,
+}
+
+/// A member of `A_t`: a segment, its birth, and (as an index into the local map handles) the
+/// map segment it is, untouched, if any.
+struct Item {
+    segment: Segment,
+    born_scan: u32,
+    unchanged: Option<usize>,
+}
+
+/// Merges the scan's segments (map frame) into the map near them.
+pub(crate) fn merge_scan(
+    map: &mut GlobalMap,
+    scan: &[Segment],
+    directions_rad: &[f64],
+    t: u32,
+    config: &Config,
+) -> MergeDiagnostics {
+    let ids = local_ids(map, scan, config.mapper.merge_margin_m);
+    let c1: Vec<MapSegment> = ids.iter().filter_map(|id| map.get(*id).copied()).collect();
+    let c1_segs: Vec<Segment> = c1.iter().map(|s| s.segment).collect();
+    let p = &config.merge;
+    let (map_pieces, scan_pieces) = insert_vertices(&c1_segs, scan, p);
+    let pairing = restrictive_pairing(
+        &segments(&map_pieces),
+        &segments(&scan_pieces),
+        directions_rad,
+        p,
+    );
+    let mut items: Vec<Item> = pairing
+        .children
+        .iter()
+        .map(|c| Item {
+            segment: c.segment,
+            born_scan: t,
+            unchanged: None,
+        })
+        .collect();
+    keep_non_parents(
+        &mut items,
+        &map_pieces,
+        &pairing.map_is_parent,
+        p.rejoin_unpaired_pieces,
+        |i| (c1_segs[i], c1[i].born_scan, Some(i)),
+    );
+    keep_non_parents(
+        &mut items,
+        &scan_pieces,
+        &pairing.scan_is_parent,
+        p.rejoin_unpaired_pieces,
+        |i| (scan[i], t, None),
+    );
+    let after_pairing = items.len();
+    let simplified = simplify(
+        &items.iter().map(|i| i.segment).collect::<Vec<_>>(),
+        directions_rad,
+        p,
+    );
+    let mut untouched = vec![false; ids.len()];
+    let mut new_segments = Vec::new();
+    for s in &simplified.segments {
+        match s.input.map(|i| &items[i]) {
+            Some(Item {
+                unchanged: Some(local),
+                ..
+            }) => untouched[*local] = true,
+            Some(item) => new_segments.push(MapSegment {
+                segment: item.segment,
+                born_scan: item.born_scan,
+            }),
+            None => new_segments.push(MapSegment {
+                segment: s.segment,
+                born_scan: t,
+            }),
+        }
+    }
+    for (id, _) in ids.iter().zip(&untouched).filter(|(_, u)| !**u) {
+        map.remove(*id);
+    }
+    for s in new_segments {
+        map.insert(s);
+    }
+    MergeDiagnostics {
+        local_map_segments: ids.len(),
+        map_pieces: map_pieces.len(),
+        scan_pieces: scan_pieces.len(),
+        children: pairing.children.len(),
+        after_pairing,
+        merges: simplified.merges,
+        after_simplification: simplified.segments.len(),
+    }
+}
+
+/// Handles of the map segments near the scan's segments, sorted.
+fn local_ids(map: &GlobalMap, scan: &[Segment], margin_m: f64) -> Vec<SegmentId> {
+    if !margin_m.is_finite() {
+        return map.iter().map(|(id, _)| id).collect();
+    }
+    let Some((lo, hi)) = bounds(scan.iter().flat_map(|s| [s.start, s.end])) else {
+        return Vec::new();
+    };
+    map.query(lo - Vec2::splat(margin_m), hi + Vec2::splat(margin_m))
+}
+
+fn segments(pieces: &[Piece]) -> Vec<Segment> {
+    pieces.iter().map(|p| p.segment).collect()
+}
+
+/// Adds the pieces that did not become parents to `A_t`. With `rejoin`, a split segment none of
+/// whose pieces became a parent goes back as the whole original (from `original(source)`: the
+/// segment, its birth, and its local index if it is a map segment).
+fn keep_non_parents(
+    items: &mut Vec<Item>,
+    pieces: &[Piece],
+    is_parent: &[bool],
+    rejoin: bool,
+    original: impl Fn(usize) -> (Segment, u32, Option<usize>),
+) {
+    let mut i = 0;
+    while i < pieces.len() {
+        let source = pieces[i].source;
+        let end = i + pieces[i..]
+            .iter()
+            .take_while(|p| p.source == source)
+            .count();
+        let any_parent = is_parent[i..end].iter().any(|p| *p);
+        let (whole, born_scan, id) = original(source);
+        if !any_parent && (rejoin || end - i == 1) {
+            items.push(Item {
+                segment: whole,
+                born_scan,
+                unchanged: id,
+            });
+        } else {
+            for (piece, _) in pieces[i..end]
+                .iter()
+                .zip(&is_parent[i..end])
+                .filter(|(_, p)| !**p)
+            {
+                items.push(Item {
+                    segment: piece.segment,
+                    born_scan,
+                    unchanged: None,
+                });
+            }
+        }
+        i = end;
+    }
+}

@@ -1,0 +1,237 @@
+//! The incremental mapper: owns `G_t` and the motion state between scans.
+//!
+//! For each scan: points → segments (robot frame) → ICP against the map near the scan, started
+//! from the motion prior → segments to the map frame → main directions of `G_{t-1}(tm)` →
+//! vertex insertion, restrictive pairing, simplification against the map near the scan → `G_t`.
+//! The first map `G_1` is the first scan.
+
+mod merge_step;
+
+use serde::{Deserialize, Serialize};
+
+use crate::align::{
+    AlignMethod, AlignResult, SegmentIndex, align_endpoints, align_points, thin_points,
+};
+use crate::config::Config;
+use crate::directions::main_directions;
+use crate::extract::extract_segments;
+use crate::geometry::{Pose2, Segment, Vec2};
+use crate::map::{GlobalMap, MapSegment};
+use crate::polyline::group_polylines;
+use crate::scan::RangeScan;
+pub use merge_step::MergeDiagnostics;
+
+/// Where ICP starts for a new scan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MotionPrior {
+    /// The previous scan's pose (the paper).
+    Previous,
+    /// The previous pose moved by the last scan-to-scan motion.
+    ConstantVelocity,
+    /// The previous pose moved by the odometry increment between the scans (falls back to the
+    /// previous pose when a scan has no odometry).
+    Odometry,
+}
+
+/// Parameters of the mapping loop.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MapperParams {
+    /// The first guess for ICP.
+    pub motion_prior: MotionPrior,
+    /// Map segments within this distance of the scan's segments' bounding box take part in
+    /// merging, metres (infinity: the whole map, as in the paper).
+    pub merge_margin_m: f64,
+}
+
+impl Default for MapperParams {
+    fn default() -> Self {
+        MapperParams {
+            motion_prior: MotionPrior::ConstantVelocity,
+            merge_margin_m: 1.0,
+        }
+    }
+}
+
+/// What one scan did.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct ScanDiagnostics {
+    /// Valid points in the scan.
+    pub points: usize,
+    /// Segments extracted from the scan.
+    pub scan_segments: usize,
+    /// The ICP outcome; `None` when there was no map to align to.
+    pub align: Option<AlignResult>,
+    /// Main directions used for merging, degrees in `[0, 180)`.
+    pub main_directions_deg: Vec<f64>,
+    /// Counts through the merge.
+    pub merge: MergeDiagnostics,
+    /// Segments in `G_t` after this scan.
+    pub map_segments: usize,
+}
+
+/// The result of [`Mapper::push`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Update {
+    /// Index of the scan, 0-based, in processing order.
+    pub scan_index: u32,
+    /// The estimated robot pose in the map frame.
+    pub map_from_robot: Pose2,
+    /// What happened.
+    pub diagnostics: ScanDiagnostics,
+}
+
+/// The incremental geometric mapper.
+#[derive(Debug, Clone)]
+pub struct Mapper {
+    config: Config,
+    map: GlobalMap,
+    scans: u32,
+    last_pose: Option<Pose2>,
+    prev_pose: Option<Pose2>,
+    last_odom: Option<Pose2>,
+    points: Vec<Vec2>,
+}
+
+impl Mapper {
+    /// A mapper with an empty map.
+    pub fn new(config: Config) -> Self {
+        Mapper {
+            config,
+            map: GlobalMap::default(),
+            scans: 0,
+            last_pose: None,
+            prev_pose: None,
+            last_odom: None,
+            points: Vec::new(),
+        }
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The current global map `G_t`.
+    pub fn map(&self) -> &GlobalMap {
+        &self.map
+    }
+
+    /// The map's segments in a stable order (by handle).
+    pub fn segments(&self) -> Vec<MapSegment> {
+        self.map.iter().map(|(_, s)| *s).collect()
+    }
+
+    /// The map's generalized polylines: indices into [`Mapper::segments`].
+    pub fn polylines(&self) -> Vec<Vec<usize>> {
+        let segs: Vec<Segment> = self.map.iter().map(|(_, s)| s.segment).collect();
+        group_polylines(&segs, self.config.polyline.max_gap_m)
+    }
+
+    /// Number of scans pushed so far.
+    pub fn scans(&self) -> u32 {
+        self.scans
+    }
+
+    /// Integrates one scan; afterwards [`Mapper::map`] is `G_t`.
+    pub fn push(&mut self, scan: &RangeScan) -> Update {
+        let t = self.scans;
+        scan.points_in_robot(&mut self.points);
+        let segs_in_robot: Vec<Segment> =
+            extract_segments(&self.points, scan.angle_increment_rad, &self.config.extract)
+                .iter()
+                .map(|e| e.segment)
+                .collect();
+        let guess = self.guess(scan);
+        let align = self.align(&segs_in_robot, guess);
+        let pose = align.map_or(guess, |a| a.map_from_robot);
+        self.prev_pose = self.last_pose.replace(pose);
+        self.last_odom = scan.odom_from_robot;
+        let scan_in_map: Vec<Segment> =
+            segs_in_robot.iter().map(|s| s.transformed(&pose)).collect();
+        let recent = self
+            .map
+            .born_since(t.saturating_sub(self.config.directions.time_memory_scans));
+        let directions = main_directions(recent.iter(), &self.config.directions).directions_rad;
+        let merge =
+            merge_step::merge_scan(&mut self.map, &scan_in_map, &directions, t, &self.config);
+        self.scans += 1;
+        let diagnostics = ScanDiagnostics {
+            points: self.points.len(),
+            scan_segments: segs_in_robot.len(),
+            align,
+            main_directions_deg: directions.iter().map(|d| d.to_degrees()).collect(),
+            merge,
+            map_segments: self.map.len(),
+        };
+        Update {
+            scan_index: t,
+            map_from_robot: pose,
+            diagnostics,
+        }
+    }
+
+    /// The first guess for the new scan's pose.
+    fn guess(&self, scan: &RangeScan) -> Pose2 {
+        let prior = self.config.mapper.motion_prior;
+        let Some(last) = self.last_pose else {
+            // The map frame: the first scan's pose, or odometry's frame when odometry is used.
+            return match (prior, scan.odom_from_robot) {
+                (MotionPrior::Odometry, Some(odom)) => odom,
+                _ => Pose2::IDENTITY,
+            };
+        };
+        match prior {
+            MotionPrior::Previous => last,
+            MotionPrior::ConstantVelocity => self
+                .prev_pose
+                .map_or(last, |prev| last.compose(&prev.between(&last))),
+            MotionPrior::Odometry => match (self.last_odom, scan.odom_from_robot) {
+                (Some(a), Some(b)) => last.compose(&a.between(&b)),
+                _ => last,
+            },
+        }
+    }
+
+    /// ICP of the scan against the map near the guess; `None` when there is nothing to align to.
+    fn align(&self, segs_in_robot: &[Segment], guess: Pose2) -> Option<AlignResult> {
+        if self.map.is_empty() || self.points.is_empty() {
+            return None;
+        }
+        let params = &self.config.align;
+        let (lo, hi) = bounds(self.points.iter().map(|p| guess.transform_point(*p)))?;
+        let margin = Vec2::splat(params.initial_gate_m);
+        let local: Vec<Segment> = self
+            .map
+            .query(lo - margin, hi + margin)
+            .iter()
+            .filter_map(|id| self.map.get(*id))
+            .map(|s| s.segment)
+            .collect();
+        if local.is_empty() {
+            return None;
+        }
+        let index = SegmentIndex::new(local);
+        Some(match params.method {
+            AlignMethod::PointToSegment => align_points(
+                &thin_points(&self.points, params.point_spacing_m),
+                &index,
+                guess,
+                params,
+            ),
+            AlignMethod::Endpoints => align_endpoints(segs_in_robot, &index, guess, params),
+        })
+    }
+}
+
+/// The bounding box of some points; `None` for none.
+pub(crate) fn bounds(points: impl Iterator<Item = Vec2>) -> Option<(Vec2, Vec2)> {
+    points.fold(None, |acc, p| match acc {
+        None => Some((p, p)),
+        Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
+    })
+}
+
+#[cfg(test)]
+mod tests;

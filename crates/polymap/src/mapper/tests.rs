@@ -1,0 +1,102 @@
+use super::*;
+use crate::testutil::scan_from;
+
+fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
+    Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
+}
+
+/// A 12 × 5 m room with a pillar box and a notch: enough structure in every direction.
+fn room() -> Vec<Segment> {
+    vec![
+        seg(-2.0, -2.5, 10.0, -2.5),
+        seg(10.0, -2.5, 10.0, 2.5),
+        seg(10.0, 2.5, 4.0, 2.5),
+        seg(4.0, 2.5, 4.0, 1.8),
+        seg(4.0, 1.8, 3.0, 1.8),
+        seg(3.0, 1.8, 3.0, 2.5),
+        seg(3.0, 2.5, -2.0, 2.5),
+        seg(-2.0, 2.5, -2.0, -2.5),
+        seg(6.0, -1.0, 6.6, -1.0),
+        seg(6.6, -1.0, 6.6, -0.4),
+        seg(6.6, -0.4, 6.0, -0.4),
+        seg(6.0, -0.4, 6.0, -1.0),
+    ]
+}
+
+fn drive(config: Config) -> (Mapper, Vec<(Pose2, Pose2)>) {
+    let walls = room();
+    let mut mapper = Mapper::new(config);
+    let mut pairs = Vec::new();
+    for i in 0..60 {
+        // 5 cm and 0.5° per scan: forward along x with a gentle turn.
+        let truth = Pose2::new(
+            0.05 * i as f64,
+            0.3 * (i as f64 / 20.0).sin(),
+            (0.5 * i as f64).to_radians() * 0.3,
+        );
+        let u = mapper.push(&scan_from(&walls, &truth, i as f64 * 0.1));
+        pairs.push((truth, u.map_from_robot));
+    }
+    (mapper, pairs)
+}
+
+fn max_error(pairs: &[(Pose2, Pose2)]) -> (f64, f64) {
+    // The map frame is the first scan's pose: compare motions from the first pose.
+    let (t0, e0) = pairs[0];
+    pairs.iter().fold((0.0f64, 0.0f64), |(dt, dr), (t, e)| {
+        let d = t0.between(t).between(&e0.between(e));
+        (
+            dt.max(d.translation().length()),
+            dr.max(d.theta_rad.abs().to_degrees()),
+        )
+    })
+}
+
+#[test]
+fn first_map_is_the_first_scan() {
+    let mut mapper = Mapper::new(Config::default());
+    let u = mapper.push(&scan_from(&room(), &Pose2::IDENTITY, 0.0));
+    assert_eq!(u.map_from_robot, Pose2::IDENTITY);
+    assert!(u.diagnostics.align.is_none());
+    assert_eq!(mapper.map().len(), u.diagnostics.scan_segments);
+    assert!(u.diagnostics.scan_segments >= 5);
+}
+
+#[test]
+fn default_config_tracks_and_keeps_the_map_small() {
+    let (mapper, pairs) = drive(Config::default());
+    let (dt, dr) = max_error(&pairs);
+    assert!(dt < 0.03 && dr < 0.3, "trajectory error {dt} m, {dr}°");
+    // 12 walls in the room, about 10 visible from the path: at most about twice that.
+    assert!(mapper.map().len() <= 24, "{} segments", mapper.map().len());
+}
+
+#[test]
+fn paper_config_tracks_and_keeps_the_map_small() {
+    let (mapper, pairs) = drive(Config::paper());
+    let (dt, dr) = max_error(&pairs);
+    assert!(dt < 0.05 && dr < 0.5, "trajectory error {dt} m, {dr}°");
+    assert!(mapper.map().len() <= 24, "{} segments", mapper.map().len());
+}
+
+#[test]
+fn odometry_prior_starts_in_the_odometry_frame() {
+    let mut config = Config::default();
+    config.mapper.motion_prior = MotionPrior::Odometry;
+    let mut mapper = Mapper::new(config);
+    let mut scan = scan_from(&room(), &Pose2::IDENTITY, 0.0);
+    scan.odom_from_robot = Some(Pose2::new(5.0, 1.0, 0.2));
+    assert_eq!(mapper.push(&scan).map_from_robot, Pose2::new(5.0, 1.0, 0.2));
+}
+
+#[test]
+fn empty_scans_do_not_break_the_loop() {
+    let mut mapper = Mapper::new(Config::default());
+    let mut empty = scan_from(&room(), &Pose2::IDENTITY, 0.0);
+    empty.ranges_m.iter_mut().for_each(|r| *r = f64::NAN);
+    let u = mapper.push(&empty);
+    assert_eq!(u.diagnostics.points, 0);
+    assert!(mapper.map().is_empty());
+    let u = mapper.push(&scan_from(&room(), &Pose2::IDENTITY, 0.1));
+    assert!(u.diagnostics.scan_segments > 0 && !mapper.map().is_empty());
+}
