@@ -1,0 +1,205 @@
+//! The map against the true walls of a simulated world: precision and recall by length.
+
+use polymap::geometry::{Pose2, Segment};
+use serde::Serialize;
+
+use super::SegmentIndex;
+
+/// Most sample pieces taken along one segment; bounds the work on absurdly long input.
+const MAX_PIECES_PER_SEGMENT: f64 = 1.0e6;
+
+/// A wall of the true world.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrueWall {
+    /// The wall, metres, world frame.
+    pub segment: Segment,
+    /// Whether the laser ever saw the wall (the simulator flags it); recall can be restricted to
+    /// seen walls.
+    pub seen: bool,
+}
+
+impl From<Segment> for TrueWall {
+    /// A wall counted as seen.
+    fn from(segment: Segment) -> Self {
+        TrueWall {
+            segment,
+            seen: true,
+        }
+    }
+}
+
+impl TrueWall {
+    /// Walls from a list of segments and the indices of the seen ones (as a simulator's wall
+    /// tally reports them); indices out of range are ignored.
+    ///
+    /// ```
+    /// use polymap::geometry::{Segment, Vec2};
+    /// use polymap_eval::map_quality::TrueWall;
+    /// let s = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0));
+    /// let walls = TrueWall::from_seen_indices(&[s, s, s], &[2, 7]);
+    /// assert_eq!(walls.iter().map(|w| w.seen).collect::<Vec<_>>(), [false, false, true]);
+    /// ```
+    pub fn from_seen_indices(walls: &[Segment], seen: &[usize]) -> Vec<TrueWall> {
+        let mut out: Vec<TrueWall> = walls
+            .iter()
+            .map(|&segment| TrueWall {
+                segment,
+                seen: false,
+            })
+            .collect();
+        for &i in seen {
+            if let Some(w) = out.get_mut(i) {
+                w.seen = true;
+            }
+        }
+        out
+    }
+}
+
+/// Settings of [`map_vs_walls`].
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WallParams {
+    /// A sample counts as matched when this close to the other set, metres. Default 0.05.
+    pub tolerance_m: f64,
+    /// Segments are cut into pieces of at most this length, and each piece's midpoint is tested;
+    /// the piece's length counts as matched or not, metres. Default 0.01 (1 cm). Non-positive or
+    /// non-finite values fall back to the default.
+    pub sample_step_m: f64,
+    /// Recall over the walls flagged `seen` only (precision always uses every wall). Default true.
+    pub recall_only_seen: bool,
+}
+
+impl Default for WallParams {
+    fn default() -> Self {
+        WallParams {
+            tolerance_m: 0.05,
+            sample_step_m: 0.01,
+            recall_only_seen: true,
+        }
+    }
+}
+
+/// Precision and recall of a map against the true walls, by length.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct WallScore {
+    /// The parameters used.
+    pub params: WallParams,
+    /// Total map segment length, metres.
+    pub map_length_m: f64,
+    /// Map length within `tolerance_m` of a true wall, metres.
+    pub map_length_on_walls_m: f64,
+    /// Total length of the walls recall is measured on, metres.
+    pub wall_length_m: f64,
+    /// Wall length within `tolerance_m` of a map segment, metres.
+    pub wall_length_mapped_m: f64,
+    /// `map_length_on_walls_m / map_length_m`, in `[0, 1]`; `None` for an empty map.
+    pub precision: Option<f64>,
+    /// `wall_length_mapped_m / wall_length_m`, in `[0, 1]`; `None` without walls.
+    pub recall: Option<f64>,
+}
+
+/// Scores map segments (map frame) against true walls (world frame); `world_from_map` places the
+/// map in the world (the simulator's truth is in the world frame, the map in the first scan's).
+///
+/// ```
+/// use polymap::geometry::{Pose2, Segment, Vec2};
+/// use polymap_eval::map_quality::{map_vs_walls, TrueWall, WallParams};
+/// let wall = TrueWall::from(Segment::new(Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0)));
+/// // The map has the first half of the wall, 2 cm off, plus 1 m of phantom wall.
+/// let map = [
+///     Segment::new(Vec2::new(0.0, 0.02), Vec2::new(2.0, 0.02)),
+///     Segment::new(Vec2::new(0.0, 3.0), Vec2::new(1.0, 3.0)),
+/// ];
+/// let s = map_vs_walls(&map, &[wall], &Pose2::IDENTITY, &WallParams::default());
+/// assert!((s.precision.unwrap() - 2.0 / 3.0).abs() < 1e-9);
+/// // Wall pieces count up to √(5² − 2²) ≈ 4.6 cm past the map's end: 205 pieces of 1 cm.
+/// assert!((s.recall.unwrap() - 2.05 / 4.0).abs() < 1e-9);
+/// ```
+pub fn map_vs_walls(
+    map_segments: &[Segment],
+    walls: &[TrueWall],
+    world_from_map: &Pose2,
+    params: &WallParams,
+) -> WallScore {
+    let map_in_world: Vec<Segment> = map_segments
+        .iter()
+        .map(|s| s.transformed(world_from_map))
+        .collect();
+    let all_walls: Vec<Segment> = walls.iter().map(|w| w.segment).collect();
+    let recall_walls: Vec<Segment> = walls
+        .iter()
+        .filter(|w| w.seen || !params.recall_only_seen)
+        .map(|w| w.segment)
+        .collect();
+    let step_m = if params.sample_step_m > 0.0 && params.sample_step_m.is_finite() {
+        params.sample_step_m
+    } else {
+        WallParams::default().sample_step_m
+    };
+    let on_walls = covered_length(
+        &map_in_world,
+        &SegmentIndex::new(&all_walls),
+        params.tolerance_m,
+        step_m,
+    );
+    let mapped = covered_length(
+        &recall_walls,
+        &SegmentIndex::new(&map_in_world),
+        params.tolerance_m,
+        step_m,
+    );
+    WallScore {
+        params: *params,
+        map_length_m: on_walls.total_m,
+        map_length_on_walls_m: on_walls.covered_m,
+        wall_length_m: mapped.total_m,
+        wall_length_mapped_m: mapped.covered_m,
+        precision: on_walls.ratio(),
+        recall: mapped.ratio(),
+    }
+}
+
+/// Length of some segments, and how much of it lies near another set.
+#[derive(Debug, Clone, Copy, Default)]
+struct Coverage {
+    total_m: f64,
+    covered_m: f64,
+}
+
+impl Coverage {
+    fn ratio(&self) -> Option<f64> {
+        (self.total_m > 0.0).then(|| self.covered_m / self.total_m)
+    }
+}
+
+/// Cuts each segment into equal pieces of at most `step_m` and sums the length of the pieces
+/// whose midpoint is within `tolerance_m` of `others`. Non-finite segments are skipped.
+fn covered_length(
+    segments: &[Segment],
+    others: &SegmentIndex,
+    tolerance_m: f64,
+    step_m: f64,
+) -> Coverage {
+    let mut coverage = Coverage::default();
+    for s in segments.iter().filter(|s| s.is_finite()) {
+        let length_m = s.length();
+        if length_m == 0.0 {
+            continue;
+        }
+        let pieces = (length_m / step_m)
+            .ceil()
+            .clamp(1.0, MAX_PIECES_PER_SEGMENT);
+        let piece_m = length_m / pieces;
+        let near = (0..pieces as usize)
+            .filter(|&k| {
+                others.any_within(
+                    s.start + s.vector() * ((k as f64 + 0.5) / pieces),
+                    tolerance_m,
+                )
+            })
+            .count();
+        coverage.total_m += length_m;
+        coverage.covered_m += near as f64 * piece_m;
+    }
+    coverage
+}
