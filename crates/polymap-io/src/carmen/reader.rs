@@ -1,0 +1,301 @@
+//! The streaming reader: one line at a time, one reused buffer, never the whole file.
+
+use std::fs::File;
+use std::io::{BufRead, BufReader, Read};
+use std::path::{Path, PathBuf};
+
+use polymap::geometry::Pose2;
+use polymap::scan::RangeScan;
+
+use super::error::{CarmenError, LineProblem};
+use super::fields::token_count;
+use super::messages::{
+    FlaserContext, OdometryReading, ParamEffect, parse_flaser, parse_odom, parse_param,
+    parse_robotlaser,
+};
+use super::stats::CarmenStats;
+
+/// How a [`CarmenReader`] treats its input.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ReaderOptions {
+    /// Skip malformed lines (counting them in [`CarmenStats::bad_lines`]) instead of failing.
+    /// Default `false`.
+    pub skip_bad_lines: bool,
+    /// `FLASER` readings at or above this range are no-returns, metres, unless the log sets
+    /// `PARAM robot_front_laser_max` (CARMEN's own parameter, FR079: 80.99), which then applies
+    /// to the scans after it. Default 50.
+    ///
+    /// `FLASER` carries no maximum range. CARMEN assumes 80 m, but the logs write their
+    /// no-return code slightly above it (Intel 81.83, FR079 81.91) or at a cap of their own
+    /// (ACES 50.00, 11,139 times, with real returns up to 49.91 just below). 50 m makes all
+    /// three codes no-returns and drops no real return in any of the three logs (the longest are
+    /// 26.37 m in Intel, 36.62 m in FR079, 49.91 m in ACES). `ROBOTLASER1` uses its own
+    /// `maximum_range` field instead.
+    pub flaser_max_range_m: f64,
+    /// Largest reading count accepted on one line. Default 100,000.
+    pub max_beams: usize,
+    /// Longest line accepted, bytes (the newline excluded). Default 4 MiB.
+    pub max_line_bytes: usize,
+    /// How many skipped bad lines keep their message in [`CarmenStats::bad_line_messages`].
+    /// Default 10.
+    pub max_bad_line_messages: usize,
+}
+
+impl Default for ReaderOptions {
+    fn default() -> Self {
+        ReaderOptions {
+            skip_bad_lines: false,
+            flaser_max_range_m: 50.0,
+            max_beams: 100_000,
+            max_line_bytes: 4 << 20,
+            max_bad_line_messages: 10,
+        }
+    }
+}
+
+/// One message the reader returns.
+#[derive(Debug, Clone, PartialEq)]
+pub enum CarmenRecord {
+    /// A laser scan (`FLASER` or `ROBOTLASER1`).
+    Scan(RangeScan),
+    /// An odometry message (`ODOM`).
+    Odometry(OdometryReading),
+}
+
+/// A streaming reader of CARMEN logs: one line in memory at a time.
+///
+/// Use [`next_scan`](Self::next_scan) for scans only, [`next_record`](Self::next_record) for
+/// scans and odometry, or iterate (the iterator yields scans; after an error it continues with
+/// the next line, so stop at the first `Err` unless you mean to go on).
+#[derive(Debug)]
+pub struct CarmenReader<R> {
+    input: R,
+    path: PathBuf,
+    options: ReaderOptions,
+    line: Vec<u8>,
+    line_number: u64,
+    robot_from_laser: Pose2,
+    flaser_max_range_m: f64,
+    failed: bool,
+    stats: CarmenStats,
+}
+
+impl CarmenReader<BufReader<File>> {
+    /// Opens a log file for reading.
+    pub fn open(path: impl AsRef<Path>, options: ReaderOptions) -> Result<Self, CarmenError> {
+        let path = path.as_ref();
+        let file = File::open(path).map_err(|source| CarmenError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(Self::from_reader(
+            BufReader::with_capacity(1 << 16, file),
+            path,
+            options,
+        ))
+    }
+}
+
+impl<R: BufRead> CarmenReader<R> {
+    /// Reads a log from any buffered input; `path` names it in error messages.
+    pub fn from_reader(input: R, path: impl Into<PathBuf>, options: ReaderOptions) -> Self {
+        let flaser_max_range_m = options.flaser_max_range_m;
+        CarmenReader {
+            input,
+            path: path.into(),
+            options,
+            line: Vec::with_capacity(4096),
+            line_number: 0,
+            robot_from_laser: Pose2::IDENTITY,
+            flaser_max_range_m,
+            failed: false,
+            stats: CarmenStats::default(),
+        }
+    }
+
+    /// What has been read so far.
+    pub fn stats(&self) -> &CarmenStats {
+        &self.stats
+    }
+
+    /// The file name used in errors.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// The next scan in file order, `Ok(None)` at the end of the log.
+    pub fn next_scan(&mut self) -> Result<Option<RangeScan>, CarmenError> {
+        loop {
+            match self.next_record()? {
+                None => return Ok(None),
+                Some(CarmenRecord::Scan(scan)) => return Ok(Some(scan)),
+                Some(CarmenRecord::Odometry(_)) => {}
+            }
+        }
+    }
+
+    /// The next scan or odometry message in file order, `Ok(None)` at the end of the log.
+    ///
+    /// After an I/O error the reader is finished and returns `Ok(None)`.
+    pub fn next_record(&mut self) -> Result<Option<CarmenRecord>, CarmenError> {
+        loop {
+            if self.failed {
+                return Ok(None);
+            }
+            let read = self.read_line();
+            self.failed = read.is_err();
+            let outcome = match read? {
+                None => return Ok(None),
+                Some(Err(problem)) => Err(problem),
+                Some(Ok(())) => {
+                    let line = std::mem::take(&mut self.line);
+                    let outcome = self.handle_line(&line);
+                    self.line = line;
+                    outcome
+                }
+            };
+            match outcome {
+                Ok(Some(record)) => return Ok(Some(record)),
+                Ok(None) => {}
+                Err(problem) => self.bad_line(problem)?,
+            }
+        }
+    }
+
+    /// Reads the next line into `self.line` (newline stripped). `Ok(None)` at the end of input;
+    /// `Ok(Some(Err(_)))` for a line that is too long (its remainder is consumed).
+    fn read_line(&mut self) -> Result<Option<Result<(), LineProblem>>, CarmenError> {
+        self.line.clear();
+        let limit = self.options.max_line_bytes;
+        let read = (&mut self.input)
+            .take(u64::try_from(limit).unwrap_or(u64::MAX).saturating_add(1))
+            .read_until(b'\n', &mut self.line)
+            .map_err(|e| self.io_error(e))?;
+        if read == 0 {
+            return Ok(None);
+        }
+        self.line_number += 1;
+        self.stats.lines += 1;
+        if self.line.last() == Some(&b'\n') {
+            self.line.pop();
+        } else if self.line.len() > limit {
+            self.discard_rest_of_line()?;
+            return Ok(Some(Err(LineProblem::TooLong { limit_bytes: limit })));
+        }
+        Ok(Some(Ok(())))
+    }
+
+    /// Consumes input up to and including the next newline, without storing it.
+    fn discard_rest_of_line(&mut self) -> Result<(), CarmenError> {
+        loop {
+            let buf = self.input.fill_buf().map_err(|source| CarmenError::Io {
+                path: self.path.clone(),
+                source,
+            })?;
+            if buf.is_empty() {
+                return Ok(());
+            }
+            match buf.iter().position(|&b| b == b'\n') {
+                Some(i) => {
+                    self.input.consume(i + 1);
+                    return Ok(());
+                }
+                None => {
+                    let len = buf.len();
+                    self.input.consume(len);
+                }
+            }
+        }
+    }
+
+    /// Interprets one line; `Ok(None)` for lines that yield no record.
+    fn handle_line(&mut self, bytes: &[u8]) -> Result<Option<CarmenRecord>, LineProblem> {
+        let line = std::str::from_utf8(bytes).map_err(|_| LineProblem::NotUtf8)?;
+        let line = line.trim_start_matches(|c: char| c.is_ascii_whitespace());
+        if line.is_empty() || line.starts_with('#') {
+            self.stats.comment_lines += 1;
+            return Ok(None);
+        }
+        let (name, rest) = line
+            .split_once(|c: char| c.is_ascii_whitespace())
+            .unwrap_or((line, ""));
+        match name {
+            "FLASER" => self.scan(parse_flaser(
+                rest,
+                token_count(rest),
+                &self.flaser_context(),
+            )?),
+            "ROBOTLASER1" => self.scan(parse_robotlaser(
+                rest,
+                token_count(rest),
+                self.options.max_beams,
+            )?),
+            "ODOM" => {
+                let odometry = parse_odom(rest, token_count(rest))?;
+                self.stats.odometry_messages += 1;
+                Ok(Some(CarmenRecord::Odometry(odometry)))
+            }
+            "PARAM" => {
+                match parse_param(rest)? {
+                    ParamEffect::FrontLaserOffset(x_m) => {
+                        self.robot_from_laser = Pose2::new(x_m, 0.0, 0.0);
+                    }
+                    ParamEffect::FrontLaserMaxRange(r_m) => self.flaser_max_range_m = r_m,
+                    ParamEffect::Other => {}
+                }
+                self.stats.params += 1;
+                Ok(None)
+            }
+            other => {
+                self.stats.count_skipped_type(other);
+                Ok(None)
+            }
+        }
+    }
+
+    fn flaser_context(&self) -> FlaserContext {
+        FlaserContext {
+            max_beams: self.options.max_beams,
+            max_range_m: self.flaser_max_range_m,
+            robot_from_laser: self.robot_from_laser,
+        }
+    }
+
+    fn scan(&mut self, scan: RangeScan) -> Result<Option<CarmenRecord>, LineProblem> {
+        self.stats.scans += 1;
+        self.stats.count_readings(&scan);
+        Ok(Some(CarmenRecord::Scan(scan)))
+    }
+
+    /// Fails on a malformed line, or counts and remembers it when skipping bad lines.
+    fn bad_line(&mut self, problem: LineProblem) -> Result<(), CarmenError> {
+        let error = CarmenError::Malformed {
+            path: self.path.clone(),
+            line: self.line_number,
+            problem,
+        };
+        if !self.options.skip_bad_lines {
+            return Err(error);
+        }
+        self.stats.bad_lines += 1;
+        if self.stats.bad_line_messages.len() < self.options.max_bad_line_messages {
+            self.stats.bad_line_messages.push(error.to_string());
+        }
+        Ok(())
+    }
+
+    fn io_error(&self, source: std::io::Error) -> CarmenError {
+        CarmenError::Io {
+            path: self.path.clone(),
+            source,
+        }
+    }
+}
+
+impl<R: BufRead> Iterator for CarmenReader<R> {
+    type Item = Result<RangeScan, CarmenError>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_scan().transpose()
+    }
+}

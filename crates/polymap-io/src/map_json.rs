@@ -1,0 +1,356 @@
+//! The `map.json` contract: the finished map's segments and polylines, in metres.
+//!
+//! ```json
+//! {"units": "m", "frame": "first_scan",
+//!  "segments": [{"start": [x, y], "end": [x, y], "born_scan": 0, "length_m": 1.0}, ...],
+//!  "polylines": [[0, 1, 2], ...]}
+//! ```
+//!
+//! `frame` names the map frame: [`FRAME_FIRST_SCAN`] (the first scan's pose) or
+//! [`FRAME_ODOMETRY`] (odometry's frame). A polyline lists segment indices in order along it.
+//! The writer puts one segment or polyline per line, so files diff well; numbers are written in
+//! the shortest form that reads back exactly. The reader ignores fields it does not know.
+//!
+//! ```
+//! use polymap::geometry::{Segment, Vec2};
+//! use polymap::map::MapSegment;
+//! use polymap_io::map_json::{MapJson, read_map_json_from, write_map_json_to};
+//! let segments = [MapSegment { segment: Segment::new(Vec2::new(0.0, 0.0), Vec2::new(3.0, 4.0)), born_scan: 7 }];
+//! let map = MapJson::new("first_scan", &segments, &[vec![0]]);
+//! assert_eq!(map.segments[0].length_m, 5.0);
+//! let mut bytes = Vec::new();
+//! write_map_json_to(&mut bytes, "map.json", &map).unwrap();
+//! let back = read_map_json_from(&bytes[..], "map.json").unwrap();
+//! assert_eq!(back, map);
+//! assert_eq!(back.map_segments()[0], segments[0]);
+//! ```
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::path::{Path, PathBuf};
+
+use polymap::geometry::{Segment, Vec2};
+use polymap::map::MapSegment;
+use serde::{Deserialize, Serialize};
+
+/// `frame` value: the map frame is the pose of the first scan.
+pub const FRAME_FIRST_SCAN: &str = "first_scan";
+/// `frame` value: the map frame is the odometry frame of the log.
+pub const FRAME_ODOMETRY: &str = "odometry";
+/// The only `units` value: metres.
+pub const UNITS_METRES: &str = "m";
+
+/// The whole `map.json` document.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MapJson {
+    /// Length unit of every coordinate: always `"m"`.
+    pub units: String,
+    /// Name of the frame the coordinates are in (see [`FRAME_FIRST_SCAN`], [`FRAME_ODOMETRY`]).
+    pub frame: String,
+    /// The map's segments.
+    pub segments: Vec<SegmentJson>,
+    /// Polylines as lists of indices into `segments`, in order along each polyline.
+    pub polylines: Vec<Vec<usize>>,
+}
+
+/// One segment of `map.json`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct SegmentJson {
+    /// First endpoint `[x, y]`, metres, map frame.
+    pub start: [f64; 2],
+    /// Second endpoint `[x, y]`, metres, map frame.
+    pub end: [f64; 2],
+    /// 0-based index of the scan whose merge created the segment.
+    pub born_scan: u32,
+    /// Length, metres (derived from the endpoints; written for convenience).
+    pub length_m: f64,
+}
+
+/// An error reading or writing `map.json`, naming the file.
+#[derive(Debug, thiserror::Error)]
+pub enum MapJsonError {
+    /// The file could not be opened, read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is not JSON of the expected shape.
+    #[error("{}:{line}:{column}: {source}", path.display())]
+    Json {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the problem.
+        line: usize,
+        /// 1-based column of the problem.
+        column: usize,
+        /// The underlying error.
+        #[source]
+        source: serde_json::Error,
+    },
+    /// The document is JSON of the right shape but breaks the contract.
+    #[error("{}: {problem}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+impl MapJson {
+    /// A document for `segments` (map frame named `frame`) and `polylines` (segment indices).
+    pub fn new(
+        frame: impl Into<String>,
+        segments: &[MapSegment],
+        polylines: &[Vec<usize>],
+    ) -> Self {
+        MapJson {
+            units: UNITS_METRES.to_owned(),
+            frame: frame.into(),
+            segments: segments.iter().map(SegmentJson::from).collect(),
+            polylines: polylines.to_vec(),
+        }
+    }
+
+    /// The segments as [`MapSegment`]s, in file order.
+    pub fn map_segments(&self) -> Vec<MapSegment> {
+        self.segments.iter().map(|s| s.to_map_segment()).collect()
+    }
+
+    /// Checks the contract: units `"m"`, finite coordinates, polyline indices in range.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.units != UNITS_METRES {
+            return Err(format!("units must be \"m\", found {:?}", self.units));
+        }
+        let bad = self.segments.iter().position(|s| {
+            !(s.start.iter().chain(&s.end).all(|v| v.is_finite()) && s.length_m.is_finite())
+        });
+        if let Some(i) = bad {
+            return Err(format!("segment {i} has a non-finite coordinate or length"));
+        }
+        for (p, polyline) in self.polylines.iter().enumerate() {
+            if let Some(&i) = polyline.iter().find(|&&i| i >= self.segments.len()) {
+                return Err(format!(
+                    "polyline {p} refers to segment {i}, but there are {} segments",
+                    self.segments.len()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl From<&MapSegment> for SegmentJson {
+    fn from(m: &MapSegment) -> Self {
+        let s = m.segment;
+        SegmentJson {
+            start: [s.start.x, s.start.y],
+            end: [s.end.x, s.end.y],
+            born_scan: m.born_scan,
+            length_m: s.length(),
+        }
+    }
+}
+
+impl SegmentJson {
+    /// The segment as a [`MapSegment`] (`length_m` is not needed: it follows from the endpoints).
+    pub fn to_map_segment(&self) -> MapSegment {
+        let start = Vec2::new(self.start[0], self.start[1]);
+        let end = Vec2::new(self.end[0], self.end[1]);
+        MapSegment {
+            segment: Segment::new(start, end),
+            born_scan: self.born_scan,
+        }
+    }
+}
+
+/// Writes `map` to a file (created or truncated), after checking it with [`MapJson::validate`].
+pub fn write_map_json(path: impl AsRef<Path>, map: &MapJson) -> Result<(), MapJsonError> {
+    let path = path.as_ref();
+    let io = |source| MapJsonError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let mut out = BufWriter::new(File::create(path).map_err(io)?);
+    write_map_json_to(&mut out, path, map)?;
+    out.flush().map_err(io)
+}
+
+/// Writes `map` to `out`, one segment or polyline per line; `path` names it in errors.
+pub fn write_map_json_to(
+    mut out: impl Write,
+    path: impl AsRef<Path>,
+    map: &MapJson,
+) -> Result<(), MapJsonError> {
+    let path = path.as_ref();
+    map.validate().map_err(|problem| MapJsonError::Invalid {
+        path: path.to_path_buf(),
+        problem,
+    })?;
+    let text = to_json_text(map).map_err(|source| json_error(path, source))?;
+    out.write_all(text.as_bytes())
+        .map_err(|source| MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// The document as text, one array element per line.
+fn to_json_text(map: &MapJson) -> Result<String, serde_json::Error> {
+    let mut text = format!(
+        "{{\"units\": {}, \"frame\": {},\n\"segments\": [",
+        serde_json::to_string(&map.units)?,
+        serde_json::to_string(&map.frame)?
+    );
+    push_lines(&mut text, &map.segments)?;
+    text.push_str("],\n\"polylines\": [");
+    push_lines(&mut text, &map.polylines)?;
+    text.push_str("]}\n");
+    Ok(text)
+}
+
+fn push_lines<T: Serialize>(text: &mut String, items: &[T]) -> Result<(), serde_json::Error> {
+    for (i, item) in items.iter().enumerate() {
+        text.push_str(if i == 0 { "\n  " } else { ",\n  " });
+        text.push_str(&serde_json::to_string(item)?);
+    }
+    if !items.is_empty() {
+        text.push('\n');
+    }
+    Ok(())
+}
+
+/// Reads and validates a `map.json` file.
+pub fn read_map_json(path: impl AsRef<Path>) -> Result<MapJson, MapJsonError> {
+    let path = path.as_ref();
+    let file = File::open(path).map_err(|source| MapJsonError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    read_map_json_from(BufReader::new(file), path)
+}
+
+/// Reads and validates a `map.json` document from `input`; `path` names it in errors.
+pub fn read_map_json_from(
+    input: impl Read,
+    path: impl AsRef<Path>,
+) -> Result<MapJson, MapJsonError> {
+    let path = path.as_ref();
+    let map: MapJson = serde_json::from_reader(input).map_err(|e| json_error(path, e))?;
+    map.validate().map_err(|problem| MapJsonError::Invalid {
+        path: path.to_path_buf(),
+        problem,
+    })?;
+    Ok(map)
+}
+
+fn json_error(path: &Path, source: serde_json::Error) -> MapJsonError {
+    if let Some(io) = source.io_error_kind() {
+        let source = std::io::Error::new(io, source);
+        return MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+    }
+    MapJsonError::Json {
+        path: path.to_path_buf(),
+        line: source.line(),
+        column: source.column(),
+        source,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn segment(x0: f64, y0: f64, x1: f64, y1: f64, born_scan: u32) -> MapSegment {
+        MapSegment {
+            segment: Segment::new(Vec2::new(x0, y0), Vec2::new(x1, y1)),
+            born_scan,
+        }
+    }
+
+    fn sample() -> MapJson {
+        let segments = [
+            segment(0.0, 0.0, 1.0, 0.0, 0),
+            segment(1.0, 0.0, 1.0, 2.5, 3),
+            segment(-0.1, 1e-7, 123456.789, -0.3333333333333333, 42),
+        ];
+        MapJson::new(FRAME_ODOMETRY, &segments, &[vec![0, 1], vec![2]])
+    }
+
+    #[test]
+    fn round_trip_is_exact() {
+        let map = sample();
+        let mut bytes = Vec::new();
+        write_map_json_to(&mut bytes, "m.json", &map).unwrap();
+        let back = read_map_json_from(&bytes[..], "m.json").unwrap();
+        assert_eq!(back, map);
+        let value: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+        assert_eq!(value["units"], "m");
+        assert_eq!(value["segments"][1]["end"][1], 2.5);
+        assert_eq!(value["polylines"][0][1], 1);
+    }
+
+    #[test]
+    fn empty_map_round_trips() {
+        let map = MapJson::new(FRAME_FIRST_SCAN, &[], &[]);
+        let mut bytes = Vec::new();
+        write_map_json_to(&mut bytes, "m.json", &map).unwrap();
+        assert_eq!(read_map_json_from(&bytes[..], "m.json").unwrap(), map);
+    }
+
+    #[test]
+    fn file_round_trip() {
+        let dir = std::env::temp_dir().join(format!("polymap-io-mapjson-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("map.json");
+        write_map_json(&path, &sample()).unwrap();
+        assert_eq!(read_map_json(&path).unwrap(), sample());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn contract_violations_are_errors() {
+        let mut map = sample();
+        map.polylines.push(vec![3]);
+        assert!(matches!(
+            write_map_json_to(Vec::new(), "m", &map),
+            Err(MapJsonError::Invalid { .. })
+        ));
+        let mut map = sample();
+        map.segments[0].start[0] = f64::NAN;
+        assert!(write_map_json_to(Vec::new(), "m", &map).is_err());
+        let text = r#"{"units": "ft", "frame": "x", "segments": [], "polylines": []}"#;
+        assert!(matches!(
+            read_map_json_from(text.as_bytes(), "m"),
+            Err(MapJsonError::Invalid { .. })
+        ));
+    }
+
+    #[test]
+    fn syntax_errors_carry_line_and_column() {
+        let text = "{\"units\": \"m\",\n \"frame\": 3}";
+        match read_map_json_from(text.as_bytes(), "bad.json") {
+            Err(MapJsonError::Json { line, path, .. }) => {
+                assert_eq!(line, 2);
+                assert_eq!(path, Path::new("bad.json"));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn unknown_fields_are_ignored() {
+        let text = r#"{"units": "m", "frame": "x", "extra": 1,
+            "segments": [{"start": [0, 0], "end": [1, 0], "born_scan": 2, "length_m": 1, "kind": "wall"}],
+            "polylines": [[0]]}"#;
+        let map = read_map_json_from(text.as_bytes(), "m").unwrap();
+        assert_eq!(map.map_segments()[0], segment(0.0, 0.0, 1.0, 0.0, 2));
+    }
+}

@@ -1,0 +1,3 @@
+//! Integration tests of polymap-io, in one test binary.
+
+mod real_logs;
