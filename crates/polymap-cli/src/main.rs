@@ -1,1 +1,30 @@
-fn main() {}
+//! `polymap`: map a laser log (or a simulated world) into a few polylines and a trajectory,
+//! simulate worlds, and evaluate results. Thin: argument parsing, progress, and calls into the
+//! library crates.
+
+mod args;
+mod config_file;
+mod eval_cmd;
+mod map_cmd;
+mod outputs;
+mod sim_cmd;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+fn main() -> ExitCode {
+    let cli = args::Cli::parse();
+    let result = match cli.command {
+        args::Command::Map(a) => map_cmd::run(&a),
+        args::Command::Simulate(a) => sim_cmd::run(&a),
+        args::Command::Eval(a) => eval_cmd::run(&a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("polymap: error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}

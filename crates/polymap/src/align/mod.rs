@@ -12,9 +12,10 @@
 //!   space and are left out.
 //!
 //! Both reject pairs beyond a correspondence gate that shrinks over the iterations and weight
-//! the rest with a Cauchy kernel. A weak prior pulls towards the initial guess so that
-//! directions the scene does not constrain (a long corridor) stay where the motion prior put
-//! them instead of drifting.
+//! the rest with a Cauchy kernel. The solver is degeneracy-aware: it only moves the pose along
+//! directions that the correspondences constrain (eigenvectors of the normal matrix with enough
+//! information), so in a featureless corridor the along-corridor position stays where the
+//! motion prior put it instead of sliding on noise.
 
 mod endpoints;
 mod nearest;
@@ -60,9 +61,10 @@ pub struct AlignParams {
     /// Point-to-segment: a point may project this far beyond a segment's end and still count,
     /// metres.
     pub endpoint_slack_m: f64,
-    /// Weight of the pull towards the initial guess, per metre² and per radian², relative to one
-    /// fully weighted correspondence. Zero turns it off.
-    pub prior_weight: f64,
+    /// Least information (eigenvalue of the weighted normal matrix, in fully weighted
+    /// correspondences per metre² along that direction; rotation in metres at 1 m) for the
+    /// solver to move along a direction.
+    pub min_information: f64,
     /// Iteration stops when the update is below this translation, metres...
     pub converged_translation_m: f64,
     /// ...and this rotation, degrees.
@@ -82,7 +84,7 @@ impl Default for AlignParams {
             robust_scale_m: 0.05,
             point_spacing_m: 0.05,
             endpoint_slack_m: 0.1,
-            prior_weight: 0.01,
+            min_information: 5.0,
             converged_translation_m: 1e-4,
             converged_rotation_deg: 0.005,
             min_correspondences: 8,

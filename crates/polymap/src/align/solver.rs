@@ -57,14 +57,11 @@ fn stats(constraints: &[Constraint], pose: &Pose2, robust_scale_m: f64) -> Stats
     Stats { rms_m, inliers }
 }
 
-/// One Gauss–Newton step with Cauchy weights and a prior towards `guess`; `None` when the
-/// normal equations are singular.
-fn step(
-    constraints: &[Constraint],
-    pose: &Pose2,
-    guess: &Pose2,
-    params: &AlignParams,
-) -> Option<Pose2> {
+/// One Gauss–Newton step with Cauchy weights, degeneracy-aware: the update is only taken along
+/// eigenvectors of the normal matrix whose eigenvalue reaches `min_information`. Along weaker
+/// directions (a featureless corridor) the pose stays where the motion prior put it. `None`
+/// when no direction is constrained.
+fn step(constraints: &[Constraint], pose: &Pose2, params: &AlignParams) -> Option<Pose2> {
     let mut h = DMat3::ZERO;
     let mut g = DVec3::ZERO;
     let k_2 = params.robust_scale_m * params.robust_scale_m;
@@ -76,24 +73,71 @@ fn step(
         h += outer(j, j * w);
         g += j * (w * r);
     }
-    let lambda = params.prior_weight;
-    h += DMat3::from_diagonal(DVec3::splat(lambda));
-    g += DVec3::new(
-        pose.x_m - guess.x_m,
-        pose.y_m - guess.y_m,
-        normalize_angle_rad(pose.theta_rad - guess.theta_rad),
-    ) * lambda;
-    if h.determinant().abs() < 1e-12 {
-        return None;
+    let (values, vectors) = symmetric_eigen(h);
+    let mut delta = DVec3::ZERO;
+    let mut constrained = false;
+    for (i, &value) in values.iter().enumerate() {
+        if value >= params.min_information {
+            let v = vectors.col(i);
+            delta -= v * (v.dot(g) / value);
+            constrained = true;
+        }
     }
-    let delta = -(h.inverse() * g);
-    delta.is_finite().then(|| {
+    (constrained && delta.is_finite()).then(|| {
         Pose2::new(
             pose.x_m + delta.x,
             pose.y_m + delta.y,
             pose.theta_rad + delta.z,
         )
     })
+}
+
+/// Eigenvalues and eigenvectors (as columns) of a symmetric 3×3 matrix, by cyclic Jacobi
+/// rotations.
+pub(crate) fn symmetric_eigen(m: DMat3) -> ([f64; 3], DMat3) {
+    // a[c][r]: column-major like glam; the matrix is symmetric so a[c][r] == a[r][c].
+    let mut a = m.to_cols_array_2d();
+    let mut v = DMat3::IDENTITY.to_cols_array_2d();
+    for _sweep in 0..32 {
+        let diag = a[0][0].abs() + a[1][1].abs() + a[2][2].abs();
+        let off = a[0][1].abs() + a[0][2].abs() + a[1][2].abs();
+        if off <= 1e-15 * diag.max(f64::MIN_POSITIVE) {
+            break;
+        }
+        for (p, q) in [(0, 1), (0, 2), (1, 2)] {
+            if a[p][q] != 0.0 {
+                jacobi_rotate(&mut a, &mut v, p, q);
+            }
+        }
+    }
+    ([a[0][0], a[1][1], a[2][2]], DMat3::from_cols_array_2d(&v))
+}
+
+/// Zeroes `a[p][q]` by the rotation `a ← Jᵀ·a·J`, accumulating `v ← v·J`.
+fn jacobi_rotate(a: &mut [[f64; 3]; 3], v: &mut [[f64; 3]; 3], p: usize, q: usize) {
+    let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+    let t = if theta == 0.0 {
+        1.0
+    } else {
+        theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt())
+    };
+    let c = 1.0 / (t * t + 1.0).sqrt();
+    let s = t * c;
+    for k in 0..3 {
+        let (akp, akq) = (a[k][p], a[k][q]);
+        a[k][p] = c * akp - s * akq;
+        a[k][q] = s * akp + c * akq;
+    }
+    for k in 0..3 {
+        let (apk, aqk) = (a[p][k], a[q][k]);
+        a[p][k] = c * apk - s * aqk;
+        a[q][k] = s * apk + c * aqk;
+    }
+    let (vp, vq) = (v[p], v[q]);
+    for k in 0..3 {
+        v[p][k] = c * vp[k] - s * vq[k];
+        v[q][k] = s * vp[k] + c * vq[k];
+    }
 }
 
 fn outer(a: DVec3, b: DVec3) -> DMat3 {
@@ -131,7 +175,7 @@ pub(crate) fn run_icp(
         if constraints.len() < params.min_correspondences {
             return result;
         }
-        let Some(next) = step(&constraints, &pose, &guess, params) else {
+        let Some(next) = step(&constraints, &pose, params) else {
             return result;
         };
         let moved_m = (next.translation() - pose.translation()).length();
@@ -152,4 +196,24 @@ pub(crate) fn run_icp(
         }
     }
     result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jacobi_eigen_reconstructs_the_matrix() {
+        let m = DMat3::from_cols(
+            DVec3::new(4.0, 1.0, 0.5),
+            DVec3::new(1.0, 3.0, -0.2),
+            DVec3::new(0.5, -0.2, 0.01),
+        );
+        let (values, vectors) = symmetric_eigen(m);
+        for i in 0..3 {
+            let v = vectors.col(i);
+            assert!((m * v - v * values[i]).length() < 1e-9, "pair {i}");
+            assert!((v.length() - 1.0).abs() < 1e-9);
+        }
+    }
 }

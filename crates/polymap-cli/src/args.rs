@@ -1,0 +1,127 @@
+//! Command-line arguments.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+
+/// Geometric robot mapping: 2D laser scans to a compact map of a few polylines.
+#[derive(Debug, Parser)]
+#[command(name = "polymap", version, about)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Map a CARMEN log (or, without LOG, the built-in simulated 45° hallway).
+    Map(MapArgs),
+    /// Simulate a world: a CARMEN log plus its ground truth (trajectory and walls).
+    Simulate(SimulateArgs),
+    /// Measure a trajectory or a map against ground truth or the log.
+    Eval(EvalArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct EvalArgs {
+    #[command(subcommand)]
+    pub command: EvalCommand,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum EvalCommand {
+    /// Relative pose error against a `.relations` file (Kümmerle et al. 2009).
+    Relations {
+        /// The estimated trajectory (TUM).
+        trajectory: PathBuf,
+        /// The ground-truth relations.
+        relations: PathBuf,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// ATE (after SE(2) alignment) and RPE against a true trajectory (TUM vs TUM).
+    Trajectory {
+        /// The estimated trajectory (TUM).
+        estimate: PathBuf,
+        /// The true trajectory (TUM), e.g. from `polymap simulate`.
+        truth: PathBuf,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Score a finished run's map against the log's points and/or true walls.
+    Map {
+        /// The output directory of `polymap map` (holds map.json and trajectory.tum).
+        run: PathBuf,
+        /// The log that was mapped: scores how much of its points the map explains.
+        #[arg(long)]
+        log: Option<PathBuf>,
+        /// True walls (map.json format, e.g. NAME.walls.json from `polymap simulate`):
+        /// precision and recall of the map.
+        #[arg(long)]
+        walls: Option<PathBuf>,
+        /// Use every N-th scan of the log.
+        #[arg(long, default_value_t = 1)]
+        stride: usize,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// The world to simulate (see --list).
+    pub world: Option<String>,
+    /// Output directory (created if missing).
+    #[arg(short, long, default_value = "out/sim")]
+    pub output: PathBuf,
+    /// Seed of the noise.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// List the worlds and exit.
+    #[arg(long)]
+    pub list: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct MapArgs {
+    /// The CARMEN log (.clf) to map. Without it, the built-in `hallway45` world is simulated
+    /// and mapped.
+    pub log: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(short, long, default_value = "out")]
+    pub output: PathBuf,
+    /// A TOML configuration file (see --print-config); it overrides the preset.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// A named preset: `default` or `paper`.
+    #[arg(long, default_value = "default")]
+    pub preset: String,
+    /// Start each ICP from the log's odometry increment (map in odometry's frame).
+    #[arg(long)]
+    pub odometry: bool,
+    /// Skip malformed log lines (counted and reported) instead of stopping at the first.
+    #[arg(long)]
+    pub skip_bad_lines: bool,
+    /// Print the effective configuration as TOML and exit.
+    #[arg(long)]
+    pub print_config: bool,
+    /// Also draw the scan points in map.svg.
+    #[arg(long)]
+    pub svg_points: bool,
+    /// Stop after this many scans.
+    #[arg(long)]
+    pub max_scans: Option<u64>,
+    /// Also write per-scan diagnostics (ICP, merge counts, main directions) to
+    /// DIR/diagnostics.jsonl, one JSON object per scan.
+    #[arg(long)]
+    pub diagnostics: bool,
+    /// Print where the time went.
+    #[arg(long)]
+    pub timings: bool,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}

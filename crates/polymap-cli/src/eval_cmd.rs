@@ -1,0 +1,197 @@
+//! `polymap eval`: measure a trajectory and a map against ground truth or the data.
+
+use std::path::Path;
+
+use anyhow::{Result, bail};
+use polymap::geometry::{Pose2, Segment};
+use polymap::scan::RangeScan;
+use polymap_eval::map_quality::{
+    PointFitParams, TrueWall, WallParams, map_fit_to_points, map_vs_walls,
+};
+use polymap_eval::relation_error::{RelationParams, evaluate_relations};
+use polymap_eval::relations::read_relations;
+use polymap_eval::trajectory::{TrajectoryParams, evaluate_trajectory};
+use polymap_io::carmen::{CarmenReader, ReaderOptions};
+use polymap_io::map_json::read_map_json;
+use polymap_io::tum::read_tum;
+use serde_json::json;
+
+use crate::args::{EvalArgs, EvalCommand};
+
+pub fn run(a: &EvalArgs) -> Result<()> {
+    match &a.command {
+        EvalCommand::Relations {
+            trajectory,
+            relations,
+            json,
+        } => {
+            let m = evaluate_relations(
+                &read_relations(relations)?,
+                &stamped(trajectory)?,
+                &RelationParams::default(),
+            );
+            if m.matched == 0 {
+                bail!(
+                    "{}: no relation matched a pose of {} by time stamp",
+                    relations.display(),
+                    trajectory.display()
+                );
+            }
+            print!(
+                "{}",
+                if *json {
+                    m.to_json() + "\n"
+                } else {
+                    m.to_table()
+                }
+            );
+        }
+        EvalCommand::Trajectory {
+            estimate,
+            truth,
+            json,
+        } => {
+            let m = evaluate_trajectory(
+                &stamped(estimate)?,
+                &stamped(truth)?,
+                &TrajectoryParams::default(),
+            );
+            if m.associated == 0 {
+                bail!(
+                    "no pose of {} matched one of {} by time stamp",
+                    estimate.display(),
+                    truth.display()
+                );
+            }
+            print_json_or(&serde_json::to_value(&m)?, *json, || trajectory_table(&m));
+        }
+        EvalCommand::Map {
+            run,
+            log,
+            walls,
+            stride,
+            json,
+        } => {
+            let map = map_segments(&run.join("map.json"))?;
+            let mut out = json!({ "segments": map.len() });
+            if let Some(log) = log {
+                let poses: Vec<Pose2> = read_tum(run.join("trajectory.tum"))?
+                    .into_iter()
+                    .map(|p| p.map_from_robot)
+                    .collect();
+                let scans = read_scans(log)?;
+                let fit = map_fit_to_points(
+                    &map,
+                    &scans,
+                    &poses,
+                    &PointFitParams {
+                        scan_stride: (*stride).max(1),
+                        ..PointFitParams::default()
+                    },
+                );
+                out["points"] = serde_json::to_value(&fit)?;
+            }
+            if let Some(walls) = walls {
+                let truth: Vec<TrueWall> = map_segments(walls)?
+                    .into_iter()
+                    .map(TrueWall::from)
+                    .collect();
+                out["walls"] = serde_json::to_value(map_vs_walls(
+                    &map,
+                    &truth,
+                    &Pose2::IDENTITY,
+                    &WallParams::default(),
+                ))?;
+            }
+            print_json_or(&out, *json, || map_table(&out));
+        }
+    }
+    Ok(())
+}
+
+fn stamped(path: &Path) -> Result<Vec<(f64, Pose2)>> {
+    Ok(read_tum(path)?
+        .into_iter()
+        .map(|p| (p.stamp.seconds, p.map_from_robot))
+        .collect())
+}
+
+fn map_segments(path: &Path) -> Result<Vec<Segment>> {
+    Ok(read_map_json(path)?
+        .map_segments()
+        .into_iter()
+        .map(|s| s.segment)
+        .collect())
+}
+
+fn read_scans(log: &Path) -> Result<Vec<RangeScan>> {
+    let mut reader = CarmenReader::open(log, ReaderOptions::default())?;
+    let mut scans = Vec::new();
+    while let Some(s) = reader.next_scan()? {
+        scans.push(s);
+    }
+    Ok(scans)
+}
+
+fn print_json_or(value: &serde_json::Value, json: bool, table: impl FnOnce() -> String) {
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(value).unwrap_or_default()
+        );
+    } else {
+        print!("{}", table());
+    }
+}
+
+fn trajectory_table(m: &polymap_eval::trajectory::TrajectoryMetrics) -> String {
+    let mut s = format!(
+        "associated poses: {} of {} (truth {})\n",
+        m.associated, m.estimate_poses, m.truth_poses
+    );
+    if let Some(ate) = &m.ate {
+        s += &format!(
+            "ATE position: rmse {:.4} m, mean {:.4} m, max {:.4} m\n",
+            ate.position_m.rms, ate.position_m.mean, ate.position_m.max
+        );
+        s += &format!(
+            "ATE heading:  mean {:.3}°, max {:.3}°\n",
+            ate.heading_deg.mean, ate.heading_deg.max
+        );
+    }
+    if let Some(rpe) = &m.rpe {
+        s += &format!(
+            "RPE ({:?}): translation rmse {:.4} m, rotation mean {:.3}°\n",
+            rpe.delta, rpe.translation_m.rms, rpe.rotation_deg.mean
+        );
+    }
+    s
+}
+
+fn map_table(v: &serde_json::Value) -> String {
+    let mut s = format!("map segments: {}\n", v["segments"]);
+    let pct = |x: &serde_json::Value| {
+        x.as_f64()
+            .map_or("-".to_owned(), |f| format!("{:.1}%", 100.0 * f))
+    };
+    let m = |x: &serde_json::Value| x.as_f64().map_or("-".to_owned(), |f| format!("{f:.4} m"));
+    if let Some(p) = v.get("points") {
+        s += &format!(
+            "scan points: {} in {} scans; within 5 cm {}, within 10 cm {}; rms {} (within 0.5 m: {})\n",
+            p["points"],
+            p["scans_used"],
+            pct(&p["share_within_tight"]),
+            pct(&p["share_within_loose"]),
+            m(&p["rms_m"]),
+            m(&p["rms_within_cutoff_m"])
+        );
+    }
+    if let Some(w) = v.get("walls") {
+        s += &format!(
+            "true walls: precision {}, recall {} (within 5 cm)\n",
+            pct(&w["precision"]),
+            pct(&w["recall"])
+        );
+    }
+    s
+}

@@ -1,0 +1,259 @@
+//! `polymap map`: a log in, the contract files out.
+
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use indicatif::{ProgressBar, ProgressStyle};
+use polymap::config::Config;
+use polymap::geometry::Vec2;
+use polymap::mapper::{Mapper, MotionPrior, ScanDiagnostics};
+use polymap_io::carmen::{CarmenReader, CarmenStats, ReaderOptions};
+use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
+use polymap_io::tum::StampedPose;
+use serde_json::json;
+
+use crate::args::MapArgs;
+use crate::config_file::{effective_config, to_toml};
+use crate::outputs::{DiagnosticsWriter, RunOutputs, write_outputs};
+use crate::sim_cmd::simulate_to;
+
+/// At most this many scan points are kept for the picture.
+const MAX_SVG_POINTS: usize = 200_000;
+
+pub fn run(a: &MapArgs) -> Result<()> {
+    let config = effective_config(&a.preset, a.config.as_deref(), a.odometry)?;
+    if a.print_config {
+        print!("{}", to_toml(&config)?);
+        return Ok(());
+    }
+    std::fs::create_dir_all(&a.output)
+        .with_context(|| format!("{}: cannot create", a.output.display()))?;
+    let log = match &a.log {
+        Some(p) => p.clone(),
+        None => {
+            let dir = a.output.join("sim");
+            let files = simulate_to(polymap_sim::DEFAULT_WORLD_NAME, &dir, 1)?;
+            eprintln!(
+                "polymap: no log given: mapping the built-in simulated world `{}` ({})",
+                polymap_sim::DEFAULT_WORLD_NAME,
+                files.log.display()
+            );
+            files.log
+        }
+    };
+    let run = map_log(&log, &config, a)?;
+    let frame = if config.mapper.motion_prior == MotionPrior::Odometry {
+        FRAME_ODOMETRY
+    } else {
+        FRAME_FIRST_SCAN
+    };
+    let segments = run.mapper.segments();
+    let polylines = run.mapper.polylines();
+    let summary = summary(&log, &config, &run, segments.len(), polylines.len())?;
+    let title = format!(
+        "{} — {} scans, {} segments, {} polylines",
+        log.display(),
+        run.poses.len(),
+        segments.len(),
+        polylines.len()
+    );
+    write_outputs(
+        &a.output,
+        &RunOutputs {
+            frame,
+            title: &title,
+            segments: &segments,
+            polylines: &polylines,
+            trajectory: &run.poses,
+            scan_points: &run.points,
+            summary: &summary,
+        },
+    )?;
+    report(a, &run, segments.len(), polylines.len());
+    Ok(())
+}
+
+/// The state of a finished mapping run.
+struct Run {
+    mapper: Mapper,
+    poses: Vec<StampedPose>,
+    points: Vec<Vec2>,
+    stats: CarmenStats,
+    latencies: Vec<Duration>,
+    read_time: Duration,
+    map_time: Duration,
+    elapsed: Duration,
+    last: ScanDiagnostics,
+    icp_failures: u64,
+}
+
+fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
+    let start = Instant::now();
+    let mut reader = CarmenReader::open(
+        log,
+        ReaderOptions {
+            skip_bad_lines: a.skip_bad_lines,
+            ..ReaderOptions::default()
+        },
+    )?;
+    let mut mapper = Mapper::new(config.clone());
+    let bar = progress_bar(a.quiet);
+    let (mut poses, mut points, mut latencies) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut read_time, mut map_time) = (Duration::ZERO, Duration::ZERO);
+    let (mut last, mut icp_failures) = (ScanDiagnostics::default(), 0);
+    let mut scan_points = Vec::new();
+    let mut diag = match a.diagnostics {
+        true => Some(DiagnosticsWriter::create(
+            &a.output.join("diagnostics.jsonl"),
+        )?),
+        false => None,
+    };
+    loop {
+        if a.max_scans.is_some_and(|m| poses.len() as u64 >= m) {
+            break;
+        }
+        let t0 = Instant::now();
+        let Some(scan) = reader.next_scan()? else {
+            break;
+        };
+        let t1 = Instant::now();
+        let update = mapper.push(&scan);
+        let t2 = Instant::now();
+        read_time += t1 - t0;
+        map_time += t2 - t1;
+        latencies.push(t2 - t1);
+        icp_failures += u64::from(update.diagnostics.align.is_some_and(|r| !r.converged));
+        if a.svg_points && points.len() < MAX_SVG_POINTS {
+            scan.points_in_robot(&mut scan_points);
+            points.extend(
+                scan_points
+                    .iter()
+                    .map(|p| update.map_from_robot.transform_point(*p)),
+            );
+        }
+        if let Some(w) = diag.as_mut() {
+            w.write(&scan.stamp.text, &update)?;
+        }
+        poses.push(StampedPose {
+            stamp: scan.stamp,
+            map_from_robot: update.map_from_robot,
+        });
+        last = update.diagnostics;
+        if poses.len() % 64 == 0 {
+            bar.set_message(format!(
+                "{} scans, {} segments",
+                poses.len(),
+                last.map_segments
+            ));
+            bar.tick();
+        }
+    }
+    bar.finish_and_clear();
+    if let Some(w) = diag {
+        w.finish()?;
+    }
+    let stats = reader.stats().clone();
+    Ok(Run {
+        mapper,
+        poses,
+        points,
+        stats,
+        latencies,
+        read_time,
+        map_time,
+        elapsed: start.elapsed(),
+        last,
+        icp_failures,
+    })
+}
+
+fn progress_bar(quiet: bool) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let bar = ProgressBar::new_spinner();
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+    );
+    bar
+}
+
+/// Latency percentiles in milliseconds: p50, p99, max.
+fn percentiles_ms(latencies: &[Duration]) -> [f64; 3] {
+    let mut ms: Vec<f64> = latencies.iter().map(|d| d.as_secs_f64() * 1e3).collect();
+    ms.sort_by(f64::total_cmp);
+    let at = |q: f64| {
+        ms.get(((ms.len() as f64 - 1.0) * q).round() as usize)
+            .copied()
+            .unwrap_or(0.0)
+    };
+    [at(0.5), at(0.99), ms.last().copied().unwrap_or(0.0)]
+}
+
+fn summary(
+    log: &Path,
+    config: &Config,
+    run: &Run,
+    segments: usize,
+    polylines: usize,
+) -> Result<serde_json::Value> {
+    let scans = run.poses.len();
+    let elapsed_s = run.elapsed.as_secs_f64();
+    let [p50, p99, max] = percentiles_ms(&run.latencies);
+    Ok(json!({
+        "log": log.display().to_string(),
+        "scans": scans,
+        "points": run.stats.valid_readings,
+        "segments": segments,
+        "polylines": polylines,
+        "elapsed_s": elapsed_s,
+        "scans_per_s": if elapsed_s > 0.0 { scans as f64 / elapsed_s } else { 0.0 },
+        "read_s": run.read_time.as_secs_f64(),
+        "map_s": run.map_time.as_secs_f64(),
+        "latency_ms": { "p50": p50, "p99": p99, "max": max },
+        "icp_not_converged": run.icp_failures,
+        "final_main_directions_deg": run.last.main_directions_deg,
+        "reader": {
+            "lines": run.stats.lines,
+            "no_return_readings": run.stats.no_return_readings,
+            "odometry_messages": run.stats.odometry_messages,
+            "skipped_types": run.stats.skipped_types,
+            "bad_lines_skipped": run.stats.bad_lines,
+        },
+        "config": serde_json::to_value(config)?,
+    }))
+}
+
+fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
+    let s = &run.stats;
+    if s.bad_lines > 0 {
+        eprintln!(
+            "polymap: warning: skipped {} malformed line(s); first: {}",
+            s.bad_lines,
+            s.bad_line_messages.first().map_or("", String::as_str)
+        );
+    }
+    let elapsed = run.elapsed.as_secs_f64();
+    println!(
+        "{} scans, {} points -> {} segments in {} polylines; {:.2} s ({:.0} scans/s); wrote {}",
+        run.poses.len(),
+        s.valid_readings,
+        segments,
+        polylines,
+        elapsed,
+        run.poses.len() as f64 / elapsed.max(1e-9),
+        PathBuf::from(&a.output).display()
+    );
+    if a.timings {
+        let [p50, p99, max] = percentiles_ms(&run.latencies);
+        println!(
+            "timings: read {:.3} s, map {:.3} s, other {:.3} s",
+            run.read_time.as_secs_f64(),
+            run.map_time.as_secs_f64(),
+            (run.elapsed - run.read_time - run.map_time).as_secs_f64()
+        );
+        println!("per-scan mapping latency: p50 {p50:.3} ms, p99 {p99:.3} ms, max {max:.3} ms");
+    }
+}

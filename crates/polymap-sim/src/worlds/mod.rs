@@ -1,0 +1,7 @@
+//! The built-in worlds, one file each. [`crate::World`] exposes them as named constructors.
+
+pub(crate) mod build;
+pub(crate) mod clutter;
+pub(crate) mod hallway45;
+pub(crate) mod hex60;
+pub(crate) mod office;
