@@ -65,6 +65,7 @@ impl Config {
             mapper: MapperParams {
                 motion_prior: MotionPrior::Previous,
                 merge_margin_m: f64::INFINITY,
+                also_start_at_anchor: false,
             },
             ..d
         }

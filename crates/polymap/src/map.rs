@@ -2,10 +2,11 @@
 //! recent births that the main directions are computed from.
 
 use rstar::RTree;
-use rstar::primitives::{GeomWithData, Rectangle};
+use rstar::primitives::{GeomWithData, Line};
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{Segment, Vec2};
+use crate::align::SegmentLookup;
+use crate::geometry::{Segment, SegmentProjection, Vec2};
 
 /// One segment of the global map, in the map frame, with its provenance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -23,7 +24,7 @@ pub struct SegmentId {
     generation: u32,
 }
 
-type Entry = GeomWithData<Rectangle<[f64; 2]>, SegmentId>;
+type Entry = GeomWithData<Line<[f64; 2]>, SegmentId>;
 
 /// The global map.
 ///
@@ -156,8 +157,29 @@ impl GlobalMap {
 }
 
 fn entry(s: &Segment, id: SegmentId) -> Entry {
-    let (lo, hi) = s.bounds();
-    GeomWithData::new(Rectangle::from_corners([lo.x, lo.y], [hi.x, hi.y]), id)
+    GeomWithData::new(Line::new([s.start.x, s.start.y], [s.end.x, s.end.y]), id)
+}
+
+impl SegmentLookup for GlobalMap {
+    /// Ties go to the smaller handle.
+    fn nearest_segment(
+        &self,
+        p: Vec2,
+        max_distance_m: f64,
+    ) -> Option<(Segment, SegmentProjection)> {
+        let mut best: Option<(SegmentId, Segment, SegmentProjection)> = None;
+        for (e, d_2) in self.tree.nearest_neighbor_iter_with_distance_2([p.x, p.y]) {
+            if d_2 > max_distance_m * max_distance_m || best.is_some_and(|b| d_2 > b.2.distance_2) {
+                break;
+            }
+            let Some(s) = self.get(e.data) else { continue };
+            let projection = s.segment.project(p);
+            if best.is_none_or(|b| (projection.distance_2, e.data) < (b.2.distance_2, b.0)) {
+                best = Some((e.data, s.segment, projection));
+            }
+        }
+        best.map(|(_, s, p)| (s, p))
+    }
 }
 
 #[cfg(test)]

@@ -24,7 +24,7 @@ mod solver;
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::Pose2;
+use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 pub use endpoints::align_endpoints;
 pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
@@ -115,6 +115,16 @@ pub struct AlignResult {
     pub residual_rms_m: f64,
     /// True when the update fell below the convergence thresholds.
     pub converged: bool,
+    /// Directions (of x, y, rotation combined) the correspondences left unobservable; along
+    /// them the pose was put on the anchor. 3 when there were too few correspondences.
+    pub weak_directions: u8,
+}
+
+/// Nearest-segment queries against a set of map segments (map frame).
+pub trait SegmentLookup {
+    /// The segment nearest to `p` within `max_distance_m`, with the projection of `p` onto it.
+    fn nearest_segment(&self, p: Vec2, max_distance_m: f64)
+    -> Option<(Segment, SegmentProjection)>;
 }
 
 #[cfg(test)]

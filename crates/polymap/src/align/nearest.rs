@@ -92,3 +92,14 @@ pub fn nearest_brute(segments: &[Segment], p: Vec2, max_distance_m: f64) -> Opti
                 .then(a.index.cmp(&b.index))
         })
 }
+
+impl super::SegmentLookup for SegmentIndex {
+    fn nearest_segment(
+        &self,
+        p: Vec2,
+        max_distance_m: f64,
+    ) -> Option<(Segment, SegmentProjection)> {
+        self.nearest(p, max_distance_m)
+            .map(|n| (self.segments[n.index], n.projection))
+    }
+}

@@ -1,7 +1,7 @@
 //! Point-to-segment ICP on the scan's points (an addition to the paper).
 
 use super::solver::{Constraint, run_icp};
-use super::{AlignParams, AlignResult, SegmentIndex};
+use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::geometry::{Pose2, Vec2};
 
 /// Keeps points at least `spacing_m` from the previously kept one (in order), so that close
@@ -26,20 +26,21 @@ pub fn thin_points(points: &[Vec2], spacing_m: f64) -> Vec<Vec2> {
     out
 }
 
-/// Aligns scan points (robot frame) to map segments by point-to-line ICP, starting at `guess`.
+/// Aligns scan points (robot frame) to map segments by point-to-line ICP, starting at `guess`;
+/// unobservable directions end on `anchor`.
 pub fn align_points(
     points_in_robot: &[Vec2],
-    map: &SegmentIndex,
+    map: &impl SegmentLookup,
     guess: Pose2,
+    anchor: Pose2,
     params: &AlignParams,
 ) -> AlignResult {
-    run_icp(guess, params, |pose, gate_m, out| {
+    run_icp(guess, anchor, params, |pose, gate_m, out| {
         for &p in points_in_robot {
             let q = pose.transform_point(p);
-            let Some(hit) = map.nearest(q, gate_m) else {
+            let Some((s, _)) = map.nearest_segment(q, gate_m) else {
                 continue;
             };
-            let s = map.segments()[hit.index];
             let len = s.length();
             if len <= 0.0 {
                 continue;

@@ -62,6 +62,34 @@ fn stats(constraints: &[Constraint], pose: &Pose2, robust_scale_m: f64) -> Stats
 /// directions (a featureless corridor) the pose stays where the motion prior put it. `None`
 /// when no direction is constrained.
 fn step(constraints: &[Constraint], pose: &Pose2, params: &AlignParams) -> Option<Pose2> {
+    let (h, g) = normal_equations(constraints, pose, params);
+    let (values, vectors) = symmetric_eigen(h);
+    let mut delta = DVec3::ZERO;
+    let mut constrained = false;
+    for (i, &value) in values.iter().enumerate() {
+        if value >= params.min_information {
+            let v = vectors.col(i);
+            delta -= v * (v.dot(g) / value);
+            constrained = true;
+        }
+    }
+    (constrained && delta.is_finite()).then(|| add(pose, delta))
+}
+
+fn add(pose: &Pose2, delta: DVec3) -> Pose2 {
+    Pose2::new(
+        pose.x_m + delta.x,
+        pose.y_m + delta.y,
+        pose.theta_rad + delta.z,
+    )
+}
+
+/// The Cauchy-weighted Gauss–Newton normal equations `(H, g)` at a pose.
+fn normal_equations(
+    constraints: &[Constraint],
+    pose: &Pose2,
+    params: &AlignParams,
+) -> (DMat3, DVec3) {
     let mut h = DMat3::ZERO;
     let mut g = DVec3::ZERO;
     let k_2 = params.robust_scale_m * params.robust_scale_m;
@@ -73,23 +101,35 @@ fn step(constraints: &[Constraint], pose: &Pose2, params: &AlignParams) -> Optio
         h += outer(j, j * w);
         g += j * (w * r);
     }
+    (h, g)
+}
+
+/// Moves `pose` onto `anchor` along the directions the constraints leave unobservable; returns
+/// how many directions that was.
+fn anchor_weak_directions(
+    constraints: &[Constraint],
+    pose: &mut Pose2,
+    anchor: &Pose2,
+    params: &AlignParams,
+) -> u8 {
+    let (h, _) = normal_equations(constraints, pose, params);
     let (values, vectors) = symmetric_eigen(h);
+    let to_anchor = DVec3::new(
+        anchor.x_m - pose.x_m,
+        anchor.y_m - pose.y_m,
+        normalize_angle_rad(anchor.theta_rad - pose.theta_rad),
+    );
+    let mut weak = 0;
     let mut delta = DVec3::ZERO;
-    let mut constrained = false;
     for (i, &value) in values.iter().enumerate() {
-        if value >= params.min_information {
+        if value < params.min_information {
             let v = vectors.col(i);
-            delta -= v * (v.dot(g) / value);
-            constrained = true;
+            delta += v * v.dot(to_anchor);
+            weak += 1;
         }
     }
-    (constrained && delta.is_finite()).then(|| {
-        Pose2::new(
-            pose.x_m + delta.x,
-            pose.y_m + delta.y,
-            pose.theta_rad + delta.z,
-        )
-    })
+    *pose = add(pose, delta);
+    weak
 }
 
 /// Eigenvalues and eigenvectors (as columns) of a symmetric 3×3 matrix, by cyclic Jacobi
@@ -145,8 +185,12 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
 }
 
 /// Runs ICP from `guess`: `gather` fills the constraints for a pose and a gate (metres).
+///
+/// Along directions the final constraints leave unobservable, the result is moved onto
+/// `anchor` (for instance the previous pose: "no evidence of motion, assume none").
 pub(crate) fn run_icp(
     guess: Pose2,
+    anchor: Pose2,
     params: &AlignParams,
     mut gather: impl FnMut(&Pose2, f64, &mut Vec<Constraint>),
 ) -> AlignResult {
@@ -159,6 +203,7 @@ pub(crate) fn run_icp(
         inliers: 0,
         residual_rms_m: 0.0,
         converged: false,
+        weak_directions: 0,
     };
     for i in 0..params.max_iterations {
         constraints.clear();
@@ -171,12 +216,15 @@ pub(crate) fn run_icp(
             inliers: s.inliers,
             residual_rms_m: s.rms_m,
             converged: false,
+            weak_directions: 0,
         };
         if constraints.len() < params.min_correspondences {
+            result.map_from_robot = anchor;
+            result.weak_directions = 3;
             return result;
         }
         let Some(next) = step(&constraints, &pose, params) else {
-            return result;
+            break;
         };
         let moved_m = (next.translation() - pose.translation()).length();
         let turned_deg = normalize_angle_rad(next.theta_rad - pose.theta_rad)
@@ -195,6 +243,8 @@ pub(crate) fn run_icp(
             break;
         }
     }
+    result.weak_directions =
+        anchor_weak_directions(&constraints, &mut result.map_from_robot, &anchor, params);
     result
 }
 

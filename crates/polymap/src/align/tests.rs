@@ -66,6 +66,7 @@ fn assert_recovers(method: AlignMethod, offset: Pose2) {
             &thin_points(&pts, params.point_spacing_m),
             &index,
             guess,
+            guess,
             &params,
         ),
         AlignMethod::Endpoints => {
@@ -74,7 +75,7 @@ fn assert_recovers(method: AlignMethod, offset: Pose2) {
                     .iter()
                     .map(|e| e.segment)
                     .collect();
-            align_endpoints(&segs, &index, guess, &params)
+            align_endpoints(&segs, &index, index.segments(), guess, guess, &params)
         }
     };
     let e = truth.between(&r.map_from_robot);
@@ -113,8 +114,8 @@ fn endpoints_recover_perturbations() {
     }
 }
 
-/// In a featureless corridor the along-corridor position is unobservable: the prior keeps it at
-/// the guess instead of letting it wander, while the across-corridor offset is corrected.
+/// In a featureless corridor the along-corridor position is unobservable: it stays at the guess
+/// (here also the anchor) instead of wandering, while the across-corridor offset is corrected.
 #[test]
 fn corridor_keeps_the_unobservable_direction_at_the_guess() {
     let world = vec![seg(-50.0, -1.0, 50.0, -1.0), seg(-50.0, 1.0, 50.0, 1.0)];
@@ -124,6 +125,7 @@ fn corridor_keeps_the_unobservable_direction_at_the_guess() {
     let r = align_points(
         &thin_points(&pts, 0.05),
         &SegmentIndex::new(world),
+        guess,
         guess,
         &AlignParams::default(),
     );
@@ -138,6 +140,7 @@ fn too_few_correspondences_keep_the_guess() {
     let r = align_points(
         &[Vec2::new(1.0, 0.0)],
         &SegmentIndex::new(room()),
+        guess,
         guess,
         &AlignParams::default(),
     );
@@ -157,4 +160,24 @@ proptest! {
         let slow = nearest_brute(&segs, q, r);
         prop_assert_eq!(fast.map(|n| n.index), slow.map(|n| n.index));
     }
+}
+
+/// Along an unobservable direction the result lands on the anchor, not on the guess: a
+/// constant-velocity guess that overshoots along a corridor is pulled back to "no motion".
+#[test]
+fn corridor_puts_the_unobservable_direction_on_the_anchor() {
+    let world = vec![seg(-50.0, -1.0, 50.0, -1.0), seg(-50.0, 1.0, 50.0, 1.0)];
+    let truth = Pose2::new(0.0, 0.2, 0.0);
+    let pts = cast(&world, &truth);
+    let (guess, anchor) = (Pose2::new(0.3, 0.0, 0.0), Pose2::new(-0.1, 0.0, 0.0));
+    let r = align_points(
+        &thin_points(&pts, 0.05),
+        &SegmentIndex::new(world),
+        guess,
+        anchor,
+        &AlignParams::default(),
+    );
+    assert!((r.map_from_robot.x_m + 0.1).abs() < 1e-6, "{r:?}");
+    assert!((r.map_from_robot.y_m - 0.2).abs() < 0.01, "{r:?}");
+    assert_eq!(r.weak_directions, 1);
 }

@@ -2,7 +2,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::bounds;
 use crate::config::Config;
 use crate::geometry::{Segment, Vec2};
 use crate::map::{GlobalMap, MapSegment, SegmentId};
@@ -118,15 +117,23 @@ pub(crate) fn merge_scan(
     }
 }
 
-/// Handles of the map segments near the scan's segments, sorted.
+/// Handles of the map segments whose bounding boxes come within `margin_m` of a scan segment's
+/// bounding box, sorted and without repeats.
 fn local_ids(map: &GlobalMap, scan: &[Segment], margin_m: f64) -> Vec<SegmentId> {
     if !margin_m.is_finite() {
         return map.iter().map(|(id, _)| id).collect();
     }
-    let Some((lo, hi)) = bounds(scan.iter().flat_map(|s| [s.start, s.end])) else {
-        return Vec::new();
-    };
-    map.query(lo - Vec2::splat(margin_m), hi + Vec2::splat(margin_m))
+    let margin = Vec2::splat(margin_m);
+    let mut ids: Vec<SegmentId> = scan
+        .iter()
+        .flat_map(|s| {
+            let (lo, hi) = s.bounds();
+            map.query(lo - margin, hi + margin)
+        })
+        .collect();
+    ids.sort_unstable();
+    ids.dedup();
+    ids
 }
 
 fn segments(pieces: &[Piece]) -> Vec<Segment> {

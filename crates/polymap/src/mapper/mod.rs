@@ -9,9 +9,7 @@ mod merge_step;
 
 use serde::{Deserialize, Serialize};
 
-use crate::align::{
-    AlignMethod, AlignResult, SegmentIndex, align_endpoints, align_points, thin_points,
-};
+use crate::align::{AlignMethod, AlignResult, align_endpoints, align_points, thin_points};
 use crate::config::Config;
 use crate::directions::main_directions;
 use crate::extract::extract_segments;
@@ -43,6 +41,9 @@ pub struct MapperParams {
     /// Map segments within this distance of the scan's segments' bounding box take part in
     /// merging, metres (infinity: the whole map, as in the paper).
     pub merge_margin_m: f64,
+    /// When the motion prior's guess differs from the anchor (the previous pose), also run ICP
+    /// from the anchor and keep the better fit (more inliers, then lower residual).
+    pub also_start_at_anchor: bool,
 }
 
 impl Default for MapperParams {
@@ -50,6 +51,7 @@ impl Default for MapperParams {
         MapperParams {
             motion_prior: MotionPrior::ConstantVelocity,
             merge_margin_m: 1.0,
+            also_start_at_anchor: true,
         }
     }
 }
@@ -143,8 +145,8 @@ impl Mapper {
                 .iter()
                 .map(|e| e.segment)
                 .collect();
-        let guess = self.guess(scan);
-        let align = self.align(&segs_in_robot, guess);
+        let (guess, anchor) = self.guess(scan);
+        let align = self.align(&segs_in_robot, guess, anchor);
         let pose = align.map_or(guess, |a| a.map_from_robot);
         self.prev_pose = self.last_pose.replace(pose);
         self.last_odom = scan.odom_from_robot;
@@ -172,57 +174,83 @@ impl Mapper {
         }
     }
 
-    /// The first guess for the new scan's pose.
-    fn guess(&self, scan: &RangeScan) -> Pose2 {
+    /// The first guess for the new scan's pose, and the anchor that directions ICP cannot
+    /// observe fall back to.
+    ///
+    /// The constant-velocity guess only seeds ICP: its anchor is the previous pose, so a
+    /// spurious velocity in a featureless corridor is not carried on from scan to scan. The
+    /// odometry guess is evidence of motion and is its own anchor.
+    fn guess(&self, scan: &RangeScan) -> (Pose2, Pose2) {
         let prior = self.config.mapper.motion_prior;
         let Some(last) = self.last_pose else {
             // The map frame: the first scan's pose, or odometry's frame when odometry is used.
-            return match (prior, scan.odom_from_robot) {
+            let first = match (prior, scan.odom_from_robot) {
                 (MotionPrior::Odometry, Some(odom)) => odom,
                 _ => Pose2::IDENTITY,
             };
+            return (first, first);
         };
         match prior {
-            MotionPrior::Previous => last,
-            MotionPrior::ConstantVelocity => self
-                .prev_pose
-                .map_or(last, |prev| last.compose(&prev.between(&last))),
-            MotionPrior::Odometry => match (self.last_odom, scan.odom_from_robot) {
-                (Some(a), Some(b)) => last.compose(&a.between(&b)),
-                _ => last,
-            },
+            MotionPrior::Previous => (last, last),
+            MotionPrior::ConstantVelocity => (
+                self.prev_pose
+                    .map_or(last, |prev| last.compose(&prev.between(&last))),
+                last,
+            ),
+            MotionPrior::Odometry => {
+                let g = match (self.last_odom, scan.odom_from_robot) {
+                    (Some(a), Some(b)) => last.compose(&a.between(&b)),
+                    _ => last,
+                };
+                (g, g)
+            }
         }
     }
 
     /// ICP of the scan against the map near the guess; `None` when there is nothing to align to.
-    fn align(&self, segs_in_robot: &[Segment], guess: Pose2) -> Option<AlignResult> {
+    fn align(&self, segs_in_robot: &[Segment], guess: Pose2, anchor: Pose2) -> Option<AlignResult> {
         if self.map.is_empty() || self.points.is_empty() {
             return None;
         }
         let params = &self.config.align;
-        let (lo, hi) = bounds(self.points.iter().map(|p| guess.transform_point(*p)))?;
-        let margin = Vec2::splat(params.initial_gate_m);
-        let local: Vec<Segment> = self
-            .map
-            .query(lo - margin, hi + margin)
-            .iter()
-            .filter_map(|id| self.map.get(*id))
-            .map(|s| s.segment)
-            .collect();
-        if local.is_empty() {
-            return None;
+        let points = thin_points(&self.points, params.point_spacing_m);
+        let near: Vec<Segment> = match params.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => {
+                let (lo, hi) = bounds(self.points.iter().map(|p| guess.transform_point(*p)))?;
+                let margin = Vec2::splat(params.initial_gate_m);
+                self.map
+                    .query(lo - margin, hi + margin)
+                    .iter()
+                    .filter_map(|id| self.map.get(*id))
+                    .map(|s| s.segment)
+                    .collect()
+            }
+        };
+        let run = |start: Pose2| match params.method {
+            AlignMethod::PointToSegment => align_points(&points, &self.map, start, anchor, params),
+            AlignMethod::Endpoints => {
+                align_endpoints(segs_in_robot, &self.map, &near, start, anchor, params)
+            }
+        };
+        let from_guess = run(guess);
+        if guess == anchor || !self.config.mapper.also_start_at_anchor {
+            return Some(from_guess);
         }
-        let index = SegmentIndex::new(local);
-        Some(match params.method {
-            AlignMethod::PointToSegment => align_points(
-                &thin_points(&self.points, params.point_spacing_m),
-                &index,
-                guess,
-                params,
-            ),
-            AlignMethod::Endpoints => align_endpoints(segs_in_robot, &index, guess, params),
+        // A constant-velocity guess is wrong when a turn starts, stops or reverses: also start
+        // from the previous pose and keep the better fit.
+        let from_anchor = run(anchor);
+        Some(if better(&from_anchor, &from_guess) {
+            from_anchor
+        } else {
+            from_guess
         })
     }
+}
+
+/// True when `a` explains the scan better than `b`: more inliers, then a lower residual.
+fn better(a: &AlignResult, b: &AlignResult) -> bool {
+    (a.inliers, -a.residual_rms_m) > (b.inliers, -b.residual_rms_m)
 }
 
 /// The bounding box of some points; `None` for none.
