@@ -1,0 +1,194 @@
+//! A self-contained HTML report of a run: the final map, the trajectory, a time slider that
+//! replays how the map grew, the main-direction histogram at the chosen time, and per-scan
+//! plots of the ICP residual and the segment counts.
+//!
+//! The page is one file with inline CSS and JavaScript and the data embedded as JSON: it needs
+//! no network. What it stores is bounded by a [`ReportBudget`]: [`ReportRecorder`] keeps map
+//! snapshots every k scans (k doubling whenever the stored numbers outgrow the budget), thins
+//! the trajectory the same way, and decimates the per-scan series by min/max bucketing, so a
+//! 13 631-scan run stays a few megabytes and the page stays responsive.
+//!
+//! Opened with `#selftest` appended to its URL, the page moves its slider through several
+//! positions, redraws, and writes `SELFTEST PASS` or `SELFTEST FAIL: reason` into
+//! `<pre id="selftest">` (`scripts/check-report-in-browser.sh` checks it in headless Chromium).
+//!
+//! ```
+//! use polymap::geometry::{Pose2, Segment, Vec2};
+//! use polymap_export::report::{ReportBudget, ReportRecorder, ScanStat, SnapshotContent, render_report_html};
+//! let wall = Segment::new(Vec2::new(2.0, -1.0), Vec2::new(2.0, 1.0));
+//! let mut recorder = ReportRecorder::new("demo", ReportBudget::default());
+//! for t in 0..10u32 {
+//!     let stat = ScanStat { scan_index: t, map_segments: 1, ..Default::default() };
+//!     let pose = Pose2::new(0.1 * f64::from(t), 0.0, 0.0);
+//!     recorder.record(stat, pose, || SnapshotContent { segments: vec![wall], ..Default::default() });
+//! }
+//! let data = recorder.finish(Vec::new(), Vec::new(), SnapshotContent::default());
+//! assert_eq!(data.trajectory.len(), 10);
+//! let html = render_report_html(&data).unwrap();
+//! assert!(html.contains("id=\"selftest\""));
+//! ```
+
+mod decimate;
+mod html;
+mod recorder;
+
+pub use decimate::decimate_min_max;
+pub use html::{render_report_html, write_report_html};
+pub use recorder::{ReportBudget, ReportRecorder};
+
+use polymap::directions::{DirectionParams, main_directions};
+use polymap::geometry::{Pose2, Segment};
+use polymap::map::MapSegment;
+
+/// Everything the report page shows. Coordinates are metres in the map frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ReportData {
+    /// Shown as the page's title (escaped).
+    pub title: String,
+    /// Number of scans in the run.
+    pub total_scans: u32,
+    /// The final map's segments.
+    pub final_segments: Vec<MapSegment>,
+    /// The final map's polylines, as indices into `final_segments` (they choose the colours).
+    pub polylines: Vec<Vec<usize>>,
+    /// Robot poses `map_from_robot` in scan order, possibly thinned (each carries its scan).
+    pub trajectory: Vec<TrajectoryPose>,
+    /// Snapshots of the map `G_t` in scan order; the slider steps through them.
+    pub snapshots: Vec<Snapshot>,
+    /// Per-scan diagnostics, decimated for plotting.
+    pub series: ScanSeries,
+}
+
+/// One robot pose of the trajectory.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TrajectoryPose {
+    /// The scan (0-based, in processing order).
+    pub scan_index: u32,
+    /// The robot's pose in the map after that scan.
+    pub map_from_robot: Pose2,
+}
+
+/// The map and its main directions right after one scan.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Snapshot {
+    /// The scan after which the snapshot was taken.
+    pub scan_index: u32,
+    /// The robot's pose in the map after that scan.
+    pub map_from_robot: Pose2,
+    /// The map's segments, metres, map frame.
+    pub content: SnapshotContent,
+}
+
+/// What a snapshot holds of the map; built only when a snapshot is due.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SnapshotContent {
+    /// The map's segments, metres, map frame.
+    pub segments: Vec<Segment>,
+    /// Length-weighted direction histogram, metres per bin; 180 one-degree bins over
+    /// `[0°, 180°)` (any length is drawn as given).
+    pub histogram_m: Vec<f64>,
+    /// The main directions, degrees in `[0, 180)`.
+    pub main_directions_deg: Vec<f64>,
+}
+
+impl SnapshotContent {
+    /// The content for the map after `scans_done` scans: all its segments, and the histogram
+    /// and main directions of the segments born in the last `params.time_memory_scans` scans
+    /// (the ones the next merge will use).
+    pub fn of_map(map_segments: &[MapSegment], scans_done: u32, params: &DirectionParams) -> Self {
+        let since = scans_done.saturating_sub(params.time_memory_scans);
+        let recent: Vec<Segment> = map_segments
+            .iter()
+            .filter(|m| m.born_scan >= since)
+            .map(|m| m.segment)
+            .collect();
+        let md = main_directions(recent.iter(), params);
+        SnapshotContent {
+            segments: map_segments.iter().map(|m| m.segment).collect(),
+            histogram_m: md.histogram_m,
+            main_directions_deg: md.directions_rad.iter().map(|d| d.to_degrees()).collect(),
+        }
+    }
+
+    /// How many numbers the snapshot stores (its share of [`ReportBudget::max_snapshot_numbers`]).
+    pub fn numbers(&self) -> usize {
+        4 * self.segments.len() + self.histogram_m.len() + self.main_directions_deg.len() + 4
+    }
+}
+
+/// The diagnostics of one scan.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ScanStat {
+    /// The scan (0-based, in processing order).
+    pub scan_index: u32,
+    /// RMS residual of the scan's alignment, metres; `None` when it was not aligned.
+    pub icp_residual_m: Option<f64>,
+    /// ICP iterations run.
+    pub icp_iterations: u32,
+    /// Segments extracted from the scan.
+    pub scan_segments: u32,
+    /// Segments in the map after the scan.
+    pub map_segments: u32,
+}
+
+impl ScanStat {
+    /// The numbers of a [`polymap::mapper::Update`].
+    pub fn from_update(update: &polymap::mapper::Update) -> Self {
+        let d = &update.diagnostics;
+        let sat = |n: usize| u32::try_from(n).unwrap_or(u32::MAX);
+        ScanStat {
+            scan_index: update.scan_index,
+            icp_residual_m: d.align.as_ref().map(|a| a.residual_rms_m),
+            icp_iterations: d.align.as_ref().map_or(0, |a| sat(a.iterations)),
+            scan_segments: sat(d.scan_segments),
+            map_segments: sat(d.map_segments),
+        }
+    }
+}
+
+/// One point of a plotted series.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SeriesPoint {
+    /// The scan.
+    pub scan_index: u32,
+    /// The value (unit given by the series).
+    pub value: f64,
+}
+
+/// The per-scan series, each decimated to a bounded number of points (min and max of each
+/// bucket of scans, so spikes survive).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ScanSeries {
+    /// RMS ICP residual, metres.
+    pub icp_residual_m: Vec<SeriesPoint>,
+    /// ICP iterations.
+    pub icp_iterations: Vec<SeriesPoint>,
+    /// Segments extracted per scan.
+    pub scan_segments: Vec<SeriesPoint>,
+    /// Segments in the map.
+    pub map_segments: Vec<SeriesPoint>,
+}
+
+impl ScanSeries {
+    /// The series of a list of scan statistics, each decimated to at most `max_points` points.
+    pub fn from_stats(stats: &[ScanStat], max_points: usize) -> Self {
+        let series = |f: &dyn Fn(&ScanStat) -> Option<f64>| {
+            let points = stats.iter().filter_map(|s| {
+                f(s).map(|value| SeriesPoint {
+                    scan_index: s.scan_index,
+                    value,
+                })
+            });
+            decimate_min_max(points, max_points)
+        };
+        ScanSeries {
+            icp_residual_m: series(&|s| s.icp_residual_m),
+            icp_iterations: series(&|s| Some(f64::from(s.icp_iterations))),
+            scan_segments: series(&|s| Some(f64::from(s.scan_segments))),
+            map_segments: series(&|s| Some(f64::from(s.map_segments))),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,8 @@
+//! Integration tests: each export is read back by a real consumer (a YAML parser and a PGM
+//! reader, the `dxf` crate, the `png` decoder, headless Chromium).
+
+mod dxf_readback;
+mod pgm_readback;
+mod png_readback;
+mod report_browser;
+mod room;
