@@ -89,7 +89,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                         ..PointFitParams::default()
                     },
                 );
-                out["points"] = serde_json::to_value(&fit)?;
+                out["points"] = serde_json::to_value(fit)?;
             }
             if let Some(walls) = walls {
                 let truth: Vec<TrueWall> = map_segments(walls)?

@@ -66,6 +66,7 @@ impl Config {
                 motion_prior: MotionPrior::Previous,
                 merge_margin_m: f64::INFINITY,
                 also_start_at_anchor: false,
+                weak_direction_velocity: 0.0,
             },
             ..d
         }

@@ -84,7 +84,7 @@ impl Default for AlignParams {
             robust_scale_m: 0.05,
             point_spacing_m: 0.05,
             endpoint_slack_m: 0.1,
-            min_information: 5.0,
+            min_information: 0.2,
             converged_translation_m: 1e-4,
             converged_rotation_deg: 0.005,
             min_correspondences: 8,

@@ -163,15 +163,15 @@ fn jacobi_rotate(a: &mut [[f64; 3]; 3], v: &mut [[f64; 3]; 3], p: usize, q: usiz
     };
     let c = 1.0 / (t * t + 1.0).sqrt();
     let s = t * c;
-    for k in 0..3 {
-        let (akp, akq) = (a[k][p], a[k][q]);
-        a[k][p] = c * akp - s * akq;
-        a[k][q] = s * akp + c * akq;
+    for row in a.iter_mut() {
+        let (akp, akq) = (row[p], row[q]);
+        row[p] = c * akp - s * akq;
+        row[q] = s * akp + c * akq;
     }
+    let (ap, aq) = (a[p], a[q]);
     for k in 0..3 {
-        let (apk, aqk) = (a[p][k], a[q][k]);
-        a[p][k] = c * apk - s * aqk;
-        a[q][k] = s * apk + c * aqk;
+        a[p][k] = c * ap[k] - s * aq[k];
+        a[q][k] = s * ap[k] + c * aq[k];
     }
     let (vp, vq) = (v[p], v[q]);
     for k in 0..3 {
@@ -260,9 +260,9 @@ mod tests {
             DVec3::new(0.5, -0.2, 0.01),
         );
         let (values, vectors) = symmetric_eigen(m);
-        for i in 0..3 {
+        for (i, value) in values.iter().enumerate() {
             let v = vectors.col(i);
-            assert!((m * v - v * values[i]).length() < 1e-9, "pair {i}");
+            assert!((m * v - v * *value).length() < 1e-9, "pair {i}");
             assert!((v.length() - 1.0).abs() < 1e-9);
         }
     }

@@ -44,6 +44,9 @@ pub struct MapperParams {
     /// When the motion prior's guess differs from the anchor (the previous pose), also run ICP
     /// from the anchor and keep the better fit (more inliers, then lower residual).
     pub also_start_at_anchor: bool,
+    /// Share of the last scan-to-scan motion kept along directions ICP cannot observe, with the
+    /// constant-velocity prior (0: assume no motion there; 1: assume the same motion again).
+    pub weak_direction_velocity: f64,
 }
 
 impl Default for MapperParams {
@@ -52,6 +55,7 @@ impl Default for MapperParams {
             motion_prior: MotionPrior::ConstantVelocity,
             merge_margin_m: 1.0,
             also_start_at_anchor: true,
+            weak_direction_velocity: 0.0,
         }
     }
 }
@@ -177,9 +181,10 @@ impl Mapper {
     /// The first guess for the new scan's pose, and the anchor that directions ICP cannot
     /// observe fall back to.
     ///
-    /// The constant-velocity guess only seeds ICP: its anchor is the previous pose, so a
-    /// spurious velocity in a featureless corridor is not carried on from scan to scan. The
-    /// odometry guess is evidence of motion and is its own anchor.
+    /// The constant-velocity guess seeds ICP; along directions ICP cannot observe, the pose
+    /// keeps `weak_direction_velocity` of the last motion (0: the previous pose, 1: the full
+    /// constant-velocity guess), so a spurious velocity in a featureless corridor fades instead
+    /// of running on. The odometry guess is evidence of motion and is its own anchor.
     fn guess(&self, scan: &RangeScan) -> (Pose2, Pose2) {
         let prior = self.config.mapper.motion_prior;
         let Some(last) = self.last_pose else {
@@ -192,11 +197,15 @@ impl Mapper {
         };
         match prior {
             MotionPrior::Previous => (last, last),
-            MotionPrior::ConstantVelocity => (
-                self.prev_pose
-                    .map_or(last, |prev| last.compose(&prev.between(&last))),
-                last,
-            ),
+            MotionPrior::ConstantVelocity => {
+                let Some(prev) = self.prev_pose else {
+                    return (last, last);
+                };
+                let v = prev.between(&last);
+                let f = self.config.mapper.weak_direction_velocity.clamp(0.0, 1.0);
+                let damped = Pose2::new(v.x_m * f, v.y_m * f, v.theta_rad * f);
+                (last.compose(&v), last.compose(&damped))
+            }
             MotionPrior::Odometry => {
                 let g = match (self.last_odom, scan.odom_from_robot) {
                     (Some(a), Some(b)) => last.compose(&a.between(&b)),

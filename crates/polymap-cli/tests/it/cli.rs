@@ -1,0 +1,166 @@
+//! The command-line contract of ARCHITECTURE.md: files written, exit status, errors.
+
+use std::fs;
+
+use crate::support::{polymap, text};
+
+#[test]
+fn map_without_a_log_maps_the_built_in_world_and_writes_the_contract() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = polymap(&["map", "-o", out.to_str().unwrap(), "--quiet"]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("hallway45"),
+        "says which world: {}",
+        text(&o)
+    );
+    for f in ["map.json", "trajectory.tum", "map.svg", "summary.json"] {
+        assert!(out.join(f).is_file(), "{f} written");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    for key in [
+        "scans",
+        "points",
+        "segments",
+        "polylines",
+        "elapsed_s",
+        "scans_per_s",
+        "config",
+    ] {
+        assert!(summary.get(key).is_some(), "summary has {key}");
+    }
+    let map = polymap_io::map_json::read_map_json(out.join("map.json")).unwrap();
+    assert_eq!(
+        map.segments.len() as u64,
+        summary["segments"].as_u64().unwrap()
+    );
+    let traj = polymap_io::tum::read_tum(out.join("trajectory.tum")).unwrap();
+    assert_eq!(traj.len() as u64, summary["scans"].as_u64().unwrap());
+    assert_eq!(
+        traj[0].stamp.text, "1000000000.000000",
+        "stamps are the log's own text"
+    );
+    assert!(roxmltree::Document::parse(&fs::read_to_string(out.join("map.svg")).unwrap()).is_ok());
+}
+
+#[test]
+fn a_truncated_line_is_an_error_naming_file_and_line_unless_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("bad.clf");
+    let good = format!(
+        "FLASER 180 {} 0 0 0 0 0 0 1.5 host 1.5\n",
+        vec!["2.0"; 180].join(" ")
+    );
+    fs::write(&log, format!("{good}{good}FLASER 180 2.0 2.0\n{good}")).unwrap();
+    let out = dir.path().join("run");
+    let o = polymap(&[
+        "map",
+        log.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("bad.clf:3"), "names file and line: {err}");
+    assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
+    let o = polymap(&[
+        "map",
+        log.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+        "--skip-bad-lines",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("skipped 1 malformed line"),
+        "{}",
+        text(&o)
+    );
+    assert!(
+        String::from_utf8_lossy(&o.stdout).starts_with("3 scans"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn a_missing_log_and_an_unknown_preset_are_clear_errors() {
+    let o = polymap(&[
+        "map",
+        "/nonexistent/log.clf",
+        "-o",
+        "/tmp/polymap-never",
+        "-q",
+    ]);
+    assert!(
+        !o.status.success() && String::from_utf8_lossy(&o.stderr).contains("/nonexistent/log.clf"),
+        "{}",
+        text(&o)
+    );
+    let o = polymap(&["map", "--preset", "fastest", "--print-config"]);
+    assert!(
+        !o.status.success() && String::from_utf8_lossy(&o.stderr).contains("unknown preset"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn printed_config_reads_back_as_the_same_config() {
+    let dir = tempfile::tempdir().unwrap();
+    for preset in ["default", "paper"] {
+        let o = polymap(&["map", "--preset", preset, "--print-config"]);
+        assert!(o.status.success(), "{}", text(&o));
+        let path = dir.path().join(format!("{preset}.toml"));
+        fs::write(&path, &o.stdout).unwrap();
+        let again = polymap(&["map", "--config", path.to_str().unwrap(), "--print-config"]);
+        assert_eq!(
+            String::from_utf8_lossy(&again.stdout),
+            String::from_utf8_lossy(&o.stdout),
+            "{preset} round trip"
+        );
+    }
+}
+
+#[test]
+fn simulate_writes_a_log_that_maps_and_evaluates() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    let o = polymap(&["simulate", "hex60", "-o", d]);
+    assert!(o.status.success(), "{}", text(&o));
+    let run = format!("{d}/run");
+    let o = polymap(&["map", &format!("{d}/hex60.clf"), "-o", &run, "-q"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = polymap(&[
+        "eval",
+        "trajectory",
+        &format!("{run}/trajectory.tum"),
+        &format!("{d}/hex60.truth.tum"),
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    assert_eq!(
+        v["associated"].as_u64(),
+        v["truth_poses"].as_u64(),
+        "every pose matched by stamp"
+    );
+    let o = polymap(&[
+        "eval",
+        "map",
+        &run,
+        "--walls",
+        &format!("{d}/hex60.walls.json"),
+        "--log",
+        &format!("{d}/hex60.clf"),
+    ]);
+    assert!(
+        o.status.success() && String::from_utf8_lossy(&o.stdout).contains("precision"),
+        "{}",
+        text(&o)
+    );
+}

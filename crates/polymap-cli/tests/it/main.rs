@@ -1,0 +1,7 @@
+//! End-to-end tests of polymap, in one binary (fast links on 2 cores).
+
+mod cli;
+mod datasets;
+mod fig7;
+mod support;
+mod worlds;

@@ -1,0 +1,58 @@
+//! Shared helpers: running the binary, simulating and mapping in process.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+use polymap::config::Config;
+use polymap::geometry::Pose2;
+use polymap::mapper::{Mapper, Update};
+use polymap_sim::{SimParams, SimRun, simulate, world_by_name};
+
+/// Runs the `polymap` binary with arguments.
+pub fn polymap(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_polymap"))
+        .args(args)
+        .output()
+        .expect("the polymap binary runs")
+}
+
+/// Standard error and output as text, for failure messages.
+pub fn text(o: &Output) -> String {
+    format!(
+        "status {:?}\nstdout:\n{}\nstderr:\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+/// A simulated run of a named world with the default parameters and seed 1.
+pub fn sim(name: &str) -> SimRun {
+    simulate(
+        &world_by_name(name).expect("a built-in world"),
+        &SimParams::default(),
+        1,
+    )
+}
+
+/// Maps every scan of a run; returns the mapper and each scan's update.
+pub fn map_run(run: &SimRun, config: Config) -> (Mapper, Vec<Update>) {
+    let mut mapper = Mapper::new(config);
+    let updates = run.scans.iter().map(|s| mapper.push(s)).collect();
+    (mapper, updates)
+}
+
+/// Estimated poses paired with the true poses in the first scan's frame (the map frame).
+pub fn pose_pairs(run: &SimRun, updates: &[Update]) -> Vec<(Pose2, Pose2)> {
+    updates
+        .iter()
+        .zip(run.true_poses_in_first_frame())
+        .map(|(u, t)| (u.map_from_robot, t))
+        .collect()
+}
+
+/// The shared datasets folder, if present.
+pub fn datasets() -> Option<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/datasets");
+    dir.is_dir().then_some(dir)
+}
