@@ -20,6 +20,26 @@ pub enum Command {
     Simulate(SimulateArgs),
     /// Measure a trajectory or a map against ground truth or the log.
     Eval(EvalArgs),
+    /// Write other formats from a finished `polymap map` run, without mapping again.
+    Export(ExportArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// The output directory of `polymap map`.
+    pub run: PathBuf,
+    /// Formats to write (comma-separated): png, html, pgm, dxf.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub format: Vec<crate::exports::Format>,
+    /// Cell size of the pgm occupancy grid, metres.
+    #[arg(long, default_value_t = 0.05)]
+    pub resolution: f64,
+    /// The log the run mapped, for the grid's free space (default: the one in summary.json).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Skip malformed log lines when re-reading the log.
+    #[arg(long)]
+    pub skip_bad_lines: bool,
 }
 
 #[derive(Debug, Args)]
@@ -118,6 +138,12 @@ pub struct MapArgs {
     /// DIR/diagnostics.jsonl, one JSON object per scan.
     #[arg(long)]
     pub diagnostics: bool,
+    /// Also write these formats (comma-separated): png, html, pgm, dxf.
+    #[arg(long, value_delimiter = ',')]
+    pub export: Vec<crate::exports::Format>,
+    /// Cell size of the pgm occupancy grid, metres.
+    #[arg(long, default_value_t = 0.05)]
+    pub resolution: f64,
     /// Print where the time went.
     #[arg(long)]
     pub timings: bool,

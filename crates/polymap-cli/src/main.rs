@@ -5,6 +5,8 @@
 mod args;
 mod config_file;
 mod eval_cmd;
+mod export_cmd;
+mod exports;
 mod map_cmd;
 mod outputs;
 mod sim_cmd;
@@ -19,6 +21,7 @@ fn main() -> ExitCode {
         args::Command::Map(a) => map_cmd::run(&a),
         args::Command::Simulate(a) => sim_cmd::run(&a),
         args::Command::Eval(a) => eval_cmd::run(&a),
+        args::Command::Export(a) => export_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

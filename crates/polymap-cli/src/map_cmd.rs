@@ -15,8 +15,10 @@ use serde_json::json;
 
 use crate::args::MapArgs;
 use crate::config_file::{effective_config, to_toml};
+use crate::exports::{ExportInput, export};
 use crate::outputs::{DiagnosticsWriter, RunOutputs, write_outputs};
 use crate::sim_cmd::simulate_to;
+use polymap_export::report::{ReportBudget, ReportRecorder, SnapshotContent};
 
 /// At most this many scan points are kept for the picture.
 const MAX_SVG_POINTS: usize = 200_000;
@@ -42,7 +44,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
             files.log
         }
     };
-    let run = map_log(&log, &config, a)?;
+    let mut run = map_log(&log, &config, a)?;
     let frame = if config.mapper.motion_prior == MotionPrior::Odometry {
         FRAME_ODOMETRY
     } else {
@@ -51,6 +53,18 @@ pub fn run(a: &MapArgs) -> Result<()> {
     let segments = run.mapper.segments();
     let polylines = run.mapper.polylines();
     let summary = summary(&log, &config, &run, segments.len(), polylines.len())?;
+    let final_content = SnapshotContent::of_map(
+        &segments,
+        run.mapper.scans(),
+        &run.mapper.config().directions,
+    );
+    let recorder = std::mem::replace(
+        &mut run.history,
+        ReportRecorder::new("", ReportBudget::default()),
+    );
+    let history = recorder.finish(segments.clone(), polylines.clone(), final_content);
+    let history_path = a.output.join("history.json");
+    crate::outputs::write_file(&history_path, serde_json::to_string(&history)?.as_bytes())?;
     let title = format!(
         "{} — {} scans, {} segments, {} polylines",
         log.display(),
@@ -71,6 +85,20 @@ pub fn run(a: &MapArgs) -> Result<()> {
         },
     )?;
     report(a, &run, segments.len(), polylines.len());
+    let input = ExportInput {
+        dir: &a.output,
+        segments: &segments,
+        polylines: &polylines,
+        trajectory: &run.poses,
+        scan_points: &run.points,
+        log: Some(&log),
+        skip_bad_lines: a.skip_bad_lines,
+        history: Some(&history),
+        resolution_m: a.resolution,
+    };
+    for path in export(&a.export, &input)? {
+        println!("wrote {}", path.display());
+    }
     Ok(())
 }
 
@@ -86,6 +114,7 @@ struct Run {
     elapsed: Duration,
     last: ScanDiagnostics,
     icp_failures: u64,
+    history: ReportRecorder,
 }
 
 fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
@@ -103,6 +132,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let (mut read_time, mut map_time) = (Duration::ZERO, Duration::ZERO);
     let (mut last, mut icp_failures) = (ScanDiagnostics::default(), 0);
     let mut scan_points = Vec::new();
+    let mut history = ReportRecorder::new(log.display().to_string(), ReportBudget::default());
     let mut diag = match a.diagnostics {
         true => Some(DiagnosticsWriter::create(
             &a.output.join("diagnostics.jsonl"),
@@ -132,6 +162,13 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
                     .map(|p| update.map_from_robot.transform_point(*p)),
             );
         }
+        history.record_update(&update, || {
+            SnapshotContent::of_map(
+                &mapper.segments(),
+                mapper.scans(),
+                &mapper.config().directions,
+            )
+        });
         if let Some(w) = diag.as_mut() {
             w.write(&scan.stamp.text, &update)?;
         }
@@ -165,6 +202,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         elapsed: start.elapsed(),
         last,
         icp_failures,
+        history,
     })
 }
 

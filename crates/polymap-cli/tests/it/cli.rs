@@ -164,3 +164,61 @@ fn simulate_writes_a_log_that_maps_and_evaluates() {
         text(&o)
     );
 }
+
+#[test]
+fn exports_are_written_during_mapping_and_again_from_a_finished_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    assert!(polymap(&["simulate", "office", "-o", d]).status.success());
+    let run = format!("{d}/run");
+    let o = polymap(&[
+        "map",
+        &format!("{d}/office.clf"),
+        "-o",
+        &run,
+        "-q",
+        "--max-scans",
+        "300",
+        "--export",
+        "png,html,pgm,dxf",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    for f in [
+        "map.png",
+        "report.html",
+        "map.pgm",
+        "map.yaml",
+        "map.dxf",
+        "history.json",
+    ] {
+        assert!(std::path::Path::new(&run).join(f).is_file(), "{f} written");
+    }
+    let yaml = fs::read_to_string(format!("{run}/map.yaml")).unwrap();
+    assert!(
+        yaml.contains("resolution: 0.05") && yaml.contains("image: map.pgm"),
+        "{yaml}"
+    );
+    for f in ["map.png", "report.html", "map.pgm", "map.dxf"] {
+        fs::remove_file(format!("{run}/{f}")).unwrap();
+    }
+    let o = polymap(&[
+        "export",
+        &run,
+        "--format",
+        "png,html,pgm,dxf",
+        "--resolution",
+        "0.1",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    for f in ["map.png", "report.html", "map.pgm", "map.dxf"] {
+        assert!(
+            std::path::Path::new(&run).join(f).is_file(),
+            "{f} re-exported"
+        );
+    }
+    assert!(
+        fs::read_to_string(format!("{run}/map.yaml"))
+            .unwrap()
+            .contains("resolution: 0.1")
+    );
+}

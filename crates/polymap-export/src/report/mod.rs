@@ -41,7 +41,7 @@ use polymap::geometry::{Pose2, Segment};
 use polymap::map::MapSegment;
 
 /// Everything the report page shows. Coordinates are metres in the map frame.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ReportData {
     /// Shown as the page's title (escaped).
     pub title: String,
@@ -60,7 +60,7 @@ pub struct ReportData {
 }
 
 /// One robot pose of the trajectory.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct TrajectoryPose {
     /// The scan (0-based, in processing order).
     pub scan_index: u32,
@@ -69,7 +69,7 @@ pub struct TrajectoryPose {
 }
 
 /// The map and its main directions right after one scan.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Snapshot {
     /// The scan after which the snapshot was taken.
     pub scan_index: u32,
@@ -80,7 +80,7 @@ pub struct Snapshot {
 }
 
 /// What a snapshot holds of the map; built only when a snapshot is due.
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SnapshotContent {
     /// The map's segments, metres, map frame.
     pub segments: Vec<Segment>,
@@ -117,7 +117,7 @@ impl SnapshotContent {
 }
 
 /// The diagnostics of one scan.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ScanStat {
     /// The scan (0-based, in processing order).
     pub scan_index: u32,
@@ -147,7 +147,7 @@ impl ScanStat {
 }
 
 /// One point of a plotted series.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct SeriesPoint {
     /// The scan.
     pub scan_index: u32,
@@ -157,7 +157,7 @@ pub struct SeriesPoint {
 
 /// The per-scan series, each decimated to a bounded number of points (min and max of each
 /// bucket of scans, so spikes survive).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ScanSeries {
     /// RMS ICP residual, metres.
     pub icp_residual_m: Vec<SeriesPoint>,
