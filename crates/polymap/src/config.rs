@@ -67,6 +67,7 @@ impl Config {
                 merge_margin_m: f64::INFINITY,
                 also_start_at_anchor: false,
                 weak_direction_velocity: 0.0,
+                ..d.mapper
             },
             ..d
         }

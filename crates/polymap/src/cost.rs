@@ -6,7 +6,7 @@
 //! `c = (l1·(n·m1) + l2·(n·m2)) / (l1 + l2)`. The merged segment runs between the extreme
 //! projections of the four endpoints onto `ld`.
 
-use crate::geometry::{Segment, Vec2, angle_between_directions_rad};
+use crate::geometry::{Segment, Vec2};
 
 /// A candidate merge: the merged segment along a main direction and what it costs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -100,10 +100,20 @@ fn hull_on_line(ld: &DirectedLine, l1: &Segment, l2: &Segment) -> Segment {
 pub fn cost(l1: &Segment, l2: &Segment, ad_rad: f64, k: f64) -> Option<Merge> {
     let ld = DirectedLine::between(l1, l2, ad_rad)?;
     let ms = hull_on_line(&ld, l1, l2);
-    let (len1, len2) = (l1.length(), l2.length());
-    let cos_a1 = angle_between_directions_rad(l1.direction_rad(), ad_rad).cos();
-    let cos_a2 = angle_between_directions_rad(l2.direction_rad(), ad_rad).cos();
-    let cos_a12 = angle_between_directions_rad(l1.direction_rad(), l2.direction_rad()).cos();
+    let (v1, v2) = (l1.vector(), l2.vector());
+    let (len1, len2) = (v1.length(), v2.length());
+    // Cosines of the undirected angles in [0°, 90°]: |u·w| of unit vectors; a zero-length
+    // segment makes no angle (cosine 1), as its direction would be 0 anyway.
+    let cos_between = |a: Vec2, la: f64, b: Vec2, lb: f64| {
+        if la > 0.0 && lb > 0.0 {
+            (a.dot(b) / (la * lb)).abs().min(1.0)
+        } else {
+            1.0
+        }
+    };
+    let cos_a1 = cos_between(v1, len1, ld.direction, 1.0);
+    let cos_a2 = cos_between(v2, len2, ld.direction, 1.0);
+    let cos_a12 = cos_between(v1, len1, v2, len2);
     let projected_m = len1 * cos_a1 + len2 * cos_a2;
     if projected_m <= f64::EPSILON * (len1 + len2) {
         return None;

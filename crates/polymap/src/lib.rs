@@ -18,6 +18,7 @@ pub mod cost;
 pub mod directions;
 pub mod extract;
 pub mod geometry;
+pub mod grid;
 pub mod map;
 pub mod mapper;
 pub mod merge;

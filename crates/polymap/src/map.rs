@@ -1,12 +1,11 @@
 //! The global map `G_t`: segments with their birth scan, a spatial index, and the queue of
 //! recent births that the main directions are computed from.
 
-use rstar::RTree;
-use rstar::primitives::{GeomWithData, Line};
 use serde::{Deserialize, Serialize};
 
 use crate::align::SegmentLookup;
 use crate::geometry::{Segment, SegmentProjection, Vec2};
+use crate::grid::SegmentGrid;
 
 /// One segment of the global map, in the map frame, with its provenance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -24,8 +23,6 @@ pub struct SegmentId {
     generation: u32,
 }
 
-type Entry = GeomWithData<Line<[f64; 2]>, SegmentId>;
-
 /// The global map.
 ///
 /// ```
@@ -38,16 +35,35 @@ type Entry = GeomWithData<Line<[f64; 2]>, SegmentId>;
 /// map.remove(id);
 /// assert!(map.is_empty() && map.get(id).is_none());
 /// ```
-#[derive(Debug, Clone, Default)]
+#[derive(Debug, Clone)]
 pub struct GlobalMap {
     slots: Vec<(u32, Option<MapSegment>)>,
     free: Vec<u32>,
-    tree: RTree<Entry>,
+    grid: SegmentGrid<SegmentId>,
     recent: Vec<(u32, SegmentId)>,
     len: usize,
 }
 
+impl Default for GlobalMap {
+    /// 0.5 m cells answering nearest queries up to 1 m from one cell.
+    fn default() -> Self {
+        GlobalMap::new(0.5, 1.0)
+    }
+}
+
 impl GlobalMap {
+    /// An empty map indexed by a grid of `cell_m` cells answering nearest-segment queries up to
+    /// `reach_m` from a single cell (further queries stay exact, only slower); metres.
+    pub fn new(cell_m: f64, reach_m: f64) -> Self {
+        GlobalMap {
+            slots: Vec::new(),
+            free: Vec::new(),
+            grid: SegmentGrid::new(cell_m, reach_m),
+            recent: Vec::new(),
+            len: 0,
+        }
+    }
+
     /// Number of segments.
     pub fn len(&self) -> usize {
         self.len
@@ -78,7 +94,7 @@ impl GlobalMap {
                 }
             }
         };
-        self.tree.insert(entry(&s.segment, id));
+        self.grid.insert(id, s.segment);
         self.recent.push((s.born_scan, id));
         self.len += 1;
         id
@@ -91,7 +107,7 @@ impl GlobalMap {
             return None;
         }
         let s = slot.1.take()?;
-        self.tree.remove(&entry(&s.segment, id));
+        self.grid.remove(id, &s.segment);
         self.free.push(id.slot);
         self.len -= 1;
         Some(s)
@@ -107,17 +123,14 @@ impl GlobalMap {
         }
     }
 
-    /// Handles of the segments whose bounding boxes meet the box `[lo, hi]` (map frame, metres),
-    /// in handle order.
+    /// Handles of the segments that cross the box `[lo, hi]` (map frame, metres), sorted.
     pub fn query(&self, lo: Vec2, hi: Vec2) -> Vec<SegmentId> {
-        let env = rstar::AABB::from_corners([lo.x, lo.y], [hi.x, hi.y]);
-        let mut ids: Vec<SegmentId> = self
-            .tree
-            .locate_in_envelope_intersecting(env)
-            .map(|e| e.data)
-            .collect();
-        ids.sort_unstable();
-        ids
+        self.grid.in_box(lo, hi)
+    }
+
+    /// Handles of the segments within `margin_m` of segment `s` (map frame), sorted.
+    pub fn near_segment(&self, s: &Segment, margin_m: f64) -> Vec<SegmentId> {
+        self.grid.near_segment(s, margin_m)
     }
 
     /// All segments, in handle order.
@@ -156,10 +169,6 @@ impl GlobalMap {
     }
 }
 
-fn entry(s: &Segment, id: SegmentId) -> Entry {
-    GeomWithData::new(Line::new([s.start.x, s.start.y], [s.end.x, s.end.y]), id)
-}
-
 impl SegmentLookup for GlobalMap {
     /// Ties go to the smaller handle.
     fn nearest_segment(
@@ -167,18 +176,9 @@ impl SegmentLookup for GlobalMap {
         p: Vec2,
         max_distance_m: f64,
     ) -> Option<(Segment, SegmentProjection)> {
-        let mut best: Option<(SegmentId, Segment, SegmentProjection)> = None;
-        for (e, d_2) in self.tree.nearest_neighbor_iter_with_distance_2([p.x, p.y]) {
-            if d_2 > max_distance_m * max_distance_m || best.is_some_and(|b| d_2 > b.2.distance_2) {
-                break;
-            }
-            let Some(s) = self.get(e.data) else { continue };
-            let projection = s.segment.project(p);
-            if best.is_none_or(|b| (projection.distance_2, e.data) < (b.2.distance_2, b.0)) {
-                best = Some((e.data, s.segment, projection));
-            }
-        }
-        best.map(|(_, s, p)| (s, p))
+        self.grid
+            .nearest(p, max_distance_m)
+            .map(|(_, s, pr)| (s, pr))
     }
 }
 

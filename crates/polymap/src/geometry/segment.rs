@@ -102,6 +102,33 @@ impl Segment {
     /// assert_eq!(a.distance_to_segment(&c), 0.0);
     /// ```
     pub fn distance_to_segment(&self, other: &Segment) -> f64 {
+        self.distance_to_segment_within(other, f64::INFINITY)
+            .unwrap_or(f64::INFINITY)
+    }
+
+    /// The distance to `other` when it is at most `limit_m`, metres; `None` otherwise. Cheaper
+    /// than [`Segment::distance_to_segment`] for far pairs: their bounding boxes are compared
+    /// first.
+    ///
+    /// ```
+    /// use polymap::geometry::{Segment, Vec2};
+    /// let a = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0));
+    /// let b = Segment::new(Vec2::new(0.0, 0.3), Vec2::new(1.0, 0.3));
+    /// assert!((a.distance_to_segment_within(&b, 0.5).unwrap() - 0.3).abs() < 1e-12);
+    /// assert_eq!(a.distance_to_segment_within(&b, 0.2), None);
+    /// ```
+    pub fn distance_to_segment_within(&self, other: &Segment, limit_m: f64) -> Option<f64> {
+        let (alo, ahi) = self.bounds();
+        let (blo, bhi) = other.bounds();
+        let gap = (blo - ahi).max(alo - bhi).max(Vec2::ZERO);
+        if gap.length_squared() > limit_m * limit_m {
+            return None;
+        }
+        let d = self.exact_distance_to_segment(other);
+        (d <= limit_m).then_some(d)
+    }
+
+    fn exact_distance_to_segment(&self, other: &Segment) -> f64 {
         if self.intersects(other) {
             return 0.0;
         }

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
-use crate::geometry::{Segment, Vec2};
+use crate::geometry::Segment;
 use crate::map::{GlobalMap, MapSegment, SegmentId};
 use crate::merge::{Piece, insert_vertices, restrictive_pairing, simplify};
 
@@ -117,19 +117,14 @@ pub(crate) fn merge_scan(
     }
 }
 
-/// Handles of the map segments whose bounding boxes come within `margin_m` of a scan segment's
-/// bounding box, sorted and without repeats.
+/// Handles of the map segments within `margin_m` of a scan segment, sorted, no repeats.
 fn local_ids(map: &GlobalMap, scan: &[Segment], margin_m: f64) -> Vec<SegmentId> {
     if !margin_m.is_finite() {
         return map.iter().map(|(id, _)| id).collect();
     }
-    let margin = Vec2::splat(margin_m);
     let mut ids: Vec<SegmentId> = scan
         .iter()
-        .flat_map(|s| {
-            let (lo, hi) = s.bounds();
-            map.query(lo - margin, hi + margin)
-        })
+        .flat_map(|s| map.near_segment(s, margin_m))
         .collect();
     ids.sort_unstable();
     ids.dedup();

@@ -47,6 +47,8 @@ pub struct MapperParams {
     /// Share of the last scan-to-scan motion kept along directions ICP cannot observe, with the
     /// constant-velocity prior (0: assume no motion there; 1: assume the same motion again).
     pub weak_direction_velocity: f64,
+    /// Cell size of the map's grid index, metres (speed only; results do not depend on it).
+    pub grid_cell_m: f64,
 }
 
 impl Default for MapperParams {
@@ -56,6 +58,7 @@ impl Default for MapperParams {
             merge_margin_m: 1.0,
             also_start_at_anchor: true,
             weak_direction_velocity: 0.0,
+            grid_cell_m: 0.5,
         }
     }
 }
@@ -103,9 +106,10 @@ pub struct Mapper {
 impl Mapper {
     /// A mapper with an empty map.
     pub fn new(config: Config) -> Self {
+        let reach_m = config.align.initial_gate_m.max(config.align.final_gate_m);
         Mapper {
+            map: GlobalMap::new(config.mapper.grid_cell_m, reach_m),
             config,
-            map: GlobalMap::default(),
             scans: 0,
             last_pose: None,
             prev_pose: None,

@@ -39,7 +39,7 @@ pub fn pairs_within(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usize, usi
     let mut out = Vec::new();
     for (i, s) in a.iter().enumerate() {
         for e in tree.locate_in_envelope_intersecting(expanded_envelope(s, gap_m)) {
-            if s.distance_to_segment(&b[e.data]) <= gap_m {
+            if s.distance_to_segment_within(&b[e.data], gap_m).is_some() {
                 out.push((i, e.data));
             }
         }

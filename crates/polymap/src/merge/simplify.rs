@@ -123,7 +123,11 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
         let mut partners: Vec<usize> = tree
             .locate_in_envelope_intersecting(expanded_envelope(&c.segment, params.max_gap_m))
             .map(|e| e.data)
-            .filter(|&o| segs[o].distance_to_segment(&c.segment) <= params.max_gap_m)
+            .filter(|&o| {
+                segs[o]
+                    .distance_to_segment_within(&c.segment, params.max_gap_m)
+                    .is_some()
+            })
             .collect();
         partners.sort_unstable();
         for o in partners {

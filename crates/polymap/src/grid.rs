@@ -1,0 +1,224 @@
+//! A uniform grid over segments for nearest-segment queries within a bounded reach.
+//!
+//! Each cell lists every segment that comes within `reach_m` of it, so a nearest query within
+//! the reach looks at one cell only: one hash lookup and a few exact projections, where an
+//! R-tree walks a heap. The grid follows the map through insertions and removals; cells exist
+//! only where segments are, so memory grows with the mapped area, not with a bounding box.
+
+use rustc_hash::FxHashMap;
+
+use crate::geometry::{Segment, SegmentProjection, Vec2};
+
+type Cell = (i32, i32);
+
+/// Segments keyed by `K`, bucketed in square cells.
+///
+/// ```
+/// use polymap::grid::SegmentGrid;
+/// use polymap::geometry::{Segment, Vec2};
+/// let mut grid = SegmentGrid::new(0.5, 1.0);
+/// grid.insert(7u32, Segment::new(Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0)));
+/// let (key, _, p) = grid.nearest(Vec2::new(2.0, 0.3), 1.0).unwrap();
+/// assert_eq!(key, 7);
+/// assert!((p.distance_2 - 0.09).abs() < 1e-12);
+/// assert!(grid.nearest(Vec2::new(2.0, 3.0), 1.0).is_none());
+/// ```
+#[derive(Debug, Clone)]
+pub struct SegmentGrid<K> {
+    cell_m: f64,
+    reach_m: f64,
+    cells: FxHashMap<Cell, Vec<(K, Segment)>>,
+}
+
+impl<K: Copy + Ord> SegmentGrid<K> {
+    /// A grid of `cell_m` cells answering single-cell queries up to `reach_m` (both metres).
+    pub fn new(cell_m: f64, reach_m: f64) -> Self {
+        let cell_m = if cell_m.is_finite() && cell_m > 0.0 {
+            cell_m
+        } else {
+            0.5
+        };
+        SegmentGrid {
+            cell_m,
+            reach_m: reach_m.max(0.0),
+            cells: FxHashMap::default(),
+        }
+    }
+
+    /// The largest query distance answered from a single cell, metres.
+    pub fn reach_m(&self) -> f64 {
+        self.reach_m
+    }
+
+    fn cell_of(&self, p: Vec2) -> Cell {
+        // Saturating float-to-int casts keep absurd coordinates from wrapping.
+        (
+            (p.x / self.cell_m).floor() as i32,
+            (p.y / self.cell_m).floor() as i32,
+        )
+    }
+
+    /// The cells a segment is listed in: those whose centre lies within reach plus half a cell
+    /// diagonal of it.
+    fn cells_of(&self, s: &Segment) -> Vec<Cell> {
+        let (lo, hi) = s.bounds();
+        let r = Vec2::splat(self.reach_m + self.cell_m);
+        let (c0, c1) = (self.cell_of(lo - r), self.cell_of(hi + r));
+        let limit = self.reach_m + self.cell_m * std::f64::consts::FRAC_1_SQRT_2;
+        let mut out = Vec::new();
+        for i in c0.0..=c1.0 {
+            for j in c0.1..=c1.1 {
+                let centre = Vec2::new(
+                    (i as f64 + 0.5) * self.cell_m,
+                    (j as f64 + 0.5) * self.cell_m,
+                );
+                if s.distance_2_to_point(centre) <= limit * limit {
+                    out.push((i, j));
+                }
+            }
+        }
+        out
+    }
+
+    /// Adds a segment under `key`.
+    pub fn insert(&mut self, key: K, segment: Segment) {
+        for c in self.cells_of(&segment) {
+            self.cells.entry(c).or_default().push((key, segment));
+        }
+    }
+
+    /// Removes the segment stored under `key` (pass the same segment as inserted).
+    pub fn remove(&mut self, key: K, segment: &Segment) {
+        for c in self.cells_of(segment) {
+            if let Some(list) = self.cells.get_mut(&c) {
+                if let Some(i) = list.iter().position(|(k, _)| *k == key) {
+                    list.swap_remove(i);
+                }
+                if list.is_empty() {
+                    self.cells.remove(&c);
+                }
+            }
+        }
+    }
+
+    /// The nearest segment within `max_distance_m` of `p`, with the projection of `p` onto it;
+    /// ties go to the smaller key.
+    pub fn nearest(&self, p: Vec2, max_distance_m: f64) -> Option<(K, Segment, SegmentProjection)> {
+        let mut best: Option<(K, Segment, SegmentProjection)> = None;
+        let mut consider = |list: &Vec<(K, Segment)>| {
+            for (k, s) in list {
+                let pr = s.project(p);
+                if pr.distance_2 <= max_distance_m * max_distance_m
+                    && best.is_none_or(|(bk, _, bp)| (pr.distance_2, *k) < (bp.distance_2, bk))
+                {
+                    best = Some((*k, *s, pr));
+                }
+            }
+        };
+        if max_distance_m <= self.reach_m {
+            if let Some(list) = self.cells.get(&self.cell_of(p)) {
+                consider(list);
+            }
+        } else {
+            let r = Vec2::splat(max_distance_m - self.reach_m);
+            self.for_cells(p - r, p + r, |list| consider(list));
+        }
+        best
+    }
+
+    /// Keys of the segments that come within `margin_m` of segment `s`, sorted, no repeats.
+    pub fn near_segment(&self, s: &Segment, margin_m: f64) -> Vec<K> {
+        let (lo, hi) = s.bounds();
+        let m = Vec2::splat(margin_m);
+        let mut keys = Vec::new();
+        self.for_cells(lo - m, hi + m, |list| {
+            keys.extend(
+                list.iter()
+                    .filter(|(_, t)| t.distance_to_segment_within(s, margin_m).is_some())
+                    .map(|(k, _)| *k),
+            );
+        });
+        keys.sort_unstable();
+        keys.dedup();
+        keys
+    }
+
+    /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come
+    /// within reach of it), sorted, no repeats.
+    pub fn in_box(&self, lo: Vec2, hi: Vec2) -> Vec<K> {
+        let mut keys = Vec::new();
+        self.for_cells(lo, hi, |list| keys.extend(list.iter().map(|(k, _)| *k)));
+        keys.sort_unstable();
+        keys.dedup();
+        keys
+    }
+
+    fn for_cells(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(&Vec<(K, Segment)>)) {
+        let (c0, c1) = (self.cell_of(lo), self.cell_of(hi));
+        let cells = (c1.0 as i64 - c0.0 as i64 + 1) * (c1.1 as i64 - c0.1 as i64 + 1);
+        if cells > self.cells.len() as i64 {
+            // A box larger than the occupied area: walk the occupied cells instead.
+            for (c, list) in &self.cells {
+                if (c0.0..=c1.0).contains(&c.0) && (c0.1..=c1.1).contains(&c.1) {
+                    f(list);
+                }
+            }
+            return;
+        }
+        for i in c0.0..=c1.0 {
+            for j in c0.1..=c1.1 {
+                if let Some(list) = self.cells.get(&(i, j)) {
+                    f(list);
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn brute(segs: &[Segment], p: Vec2, max_d: f64) -> Option<usize> {
+        segs.iter()
+            .enumerate()
+            .map(|(i, s)| (s.distance_2_to_point(p), i))
+            .filter(|(d, _)| *d <= max_d * max_d)
+            .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)))
+            .map(|(_, i)| i)
+    }
+
+    proptest! {
+        #[test]
+        fn grid_nearest_agrees_with_brute_force_through_removals(
+            raw in proptest::collection::vec((-8.0f64..8.0, -8.0f64..8.0, -8.0f64..8.0, -8.0f64..8.0), 1..30),
+            removed in proptest::collection::vec(any::<bool>(), 30),
+            qx in -9.0f64..9.0, qy in -9.0f64..9.0, d in 0.0f64..3.0,
+        ) {
+            let segs: Vec<Segment> = raw.iter().map(|&(a, b, c, e)| Segment::new(Vec2::new(a, b), Vec2::new(c, e))).collect();
+            let mut grid = SegmentGrid::new(0.5, 1.0);
+            for (i, s) in segs.iter().enumerate() { grid.insert(i, *s); }
+            let mut kept = Vec::new();
+            for (i, s) in segs.iter().enumerate() {
+                if removed[i] { grid.remove(i, s); } else { kept.push((i, *s)); }
+            }
+            let q = Vec2::new(qx, qy);
+            let kept_segs: Vec<Segment> = kept.iter().map(|(_, s)| *s).collect();
+            let expect = brute(&kept_segs, q, d).map(|j| kept[j].0);
+            prop_assert_eq!(grid.nearest(q, d).map(|(k, _, _)| k), expect);
+            let probe = Segment::new(q, q + Vec2::new(1.0, 0.5));
+            let near: Vec<usize> = kept.iter().filter(|(_, s)| s.distance_to_segment(&probe) <= d).map(|(i, _)| *i).collect();
+            prop_assert_eq!(grid.near_segment(&probe, d), near);
+        }
+    }
+
+    #[test]
+    fn removing_everything_empties_the_grid() {
+        let mut grid = SegmentGrid::new(0.5, 1.0);
+        let s = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(10.0, 3.0));
+        grid.insert(1u8, s);
+        grid.remove(1, &s);
+        assert!(grid.cells.is_empty());
+    }
+}
