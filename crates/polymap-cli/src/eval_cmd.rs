@@ -37,7 +37,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                     trajectory.display()
                 );
             }
-            print!(
+            say_raw!(
                 "{}",
                 if *json {
                     m.to_json() + "\n"
@@ -135,12 +135,12 @@ fn read_scans(log: &Path) -> Result<Vec<RangeScan>> {
 
 fn print_json_or(value: &serde_json::Value, json: bool, table: impl FnOnce() -> String) {
     if json {
-        println!(
+        say!(
             "{}",
             serde_json::to_string_pretty(value).unwrap_or_default()
         );
     } else {
-        print!("{}", table());
+        say_raw!("{}", table());
     }
 }
 

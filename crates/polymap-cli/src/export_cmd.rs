@@ -35,7 +35,7 @@ pub fn run(a: &ExportArgs) -> Result<()> {
         resolution_m: a.resolution,
     };
     for path in export(&a.format, &input)? {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }

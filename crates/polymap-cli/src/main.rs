@@ -2,6 +2,23 @@
 //! simulate worlds, and evaluate results. Thin: argument parsing, progress, and calls into the
 //! library crates.
 
+/// Prints a line to standard output. A closed stdout (`polymap … | head`) ends the output
+/// quietly instead of panicking, as Unix tools do.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+
+/// [`say!`] without the newline.
+macro_rules! say_raw {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 mod args;
 mod config_file;
 mod eval_cmd;

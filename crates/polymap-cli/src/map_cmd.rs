@@ -26,7 +26,7 @@ const MAX_SVG_POINTS: usize = 200_000;
 pub fn run(a: &MapArgs) -> Result<()> {
     let config = effective_config(&a.preset, a.config.as_deref(), a.odometry)?;
     if a.print_config {
-        print!("{}", to_toml(&config)?);
+        say_raw!("{}", to_toml(&config)?);
         return Ok(());
     }
     std::fs::create_dir_all(&a.output)
@@ -97,7 +97,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
         resolution_m: a.resolution,
     };
     for path in export(&a.export, &input)? {
-        println!("wrote {}", path.display());
+        say!("wrote {}", path.display());
     }
     Ok(())
 }
@@ -274,7 +274,7 @@ fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
         );
     }
     let elapsed = run.elapsed.as_secs_f64();
-    println!(
+    say!(
         "{} scans, {} points -> {} segments in {} polylines; {:.2} s ({:.0} scans/s); wrote {}",
         run.poses.len(),
         s.valid_readings,
@@ -286,12 +286,12 @@ fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
     );
     if a.timings {
         let [p50, p99, max] = percentiles_ms(&run.latencies);
-        println!(
+        say!(
             "timings: read {:.3} s, map {:.3} s, other {:.3} s",
             run.read_time.as_secs_f64(),
             run.map_time.as_secs_f64(),
             (run.elapsed - run.read_time - run.map_time).as_secs_f64()
         );
-        println!("per-scan mapping latency: p50 {p50:.3} ms, p99 {p99:.3} ms, max {max:.3} ms");
+        say!("per-scan mapping latency: p50 {p50:.3} ms, p99 {p99:.3} ms, max {max:.3} ms");
     }
 }

@@ -23,7 +23,7 @@ pub struct SimFiles {
 pub fn run(a: &SimulateArgs) -> Result<()> {
     if a.list {
         for w in World::catalogue() {
-            println!("{:<10} {}", w.name, w.description);
+            say!("{:<10} {}", w.name, w.description);
         }
         return Ok(());
     }
@@ -32,7 +32,7 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
         .as_deref()
         .ok_or_else(|| anyhow!("name a world (see --list)"))?;
     let files = simulate_to(name, &a.output, a.seed)?;
-    println!(
+    say!(
         "wrote {}, {} and {}",
         files.log.display(),
         files.truth.display(),

@@ -222,3 +222,25 @@ fn exports_are_written_during_mapping_and_again_from_a_finished_run() {
             .contains("resolution: 0.1")
     );
 }
+
+/// `polymap … | head` once panicked ("failed printing to stdout: Broken pipe").
+#[test]
+fn closed_stdout_does_not_panic() {
+    let dir = tempfile::tempdir().unwrap();
+    let script = format!(
+        "set -o pipefail; {bin} simulate hex60 -o {d} | (exec 0<&-; sleep 0.2); {bin} map {d}/hex60.clf -o {d}/run -q --max-scans 50 | (exec 0<&-; sleep 0.2)",
+        bin = env!("CARGO_BIN_EXE_polymap"),
+        d = dir.path().display()
+    );
+    let o = std::process::Command::new("bash")
+        .arg("-c")
+        .arg(&script)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        !String::from_utf8_lossy(&o.stderr).contains("panicked"),
+        "{}",
+        text(&o)
+    );
+}
