@@ -1,6 +1,9 @@
 //! `polymap map`: a log in, the contract files out.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
@@ -119,15 +122,14 @@ struct Run {
 
 fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let start = Instant::now();
-    let mut reader = CarmenReader::open(
-        log,
-        ReaderOptions {
-            skip_bad_lines: a.skip_bad_lines,
-            ..ReaderOptions::default()
-        },
-    )?;
+    let file = std::fs::File::open(log).with_context(|| format!("{}: cannot open", log.display()))?;
+    let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let bytes_read = Arc::new(AtomicU64::new(0));
+    let input = std::io::BufReader::with_capacity(1 << 16, CountingReader { inner: file, count: Arc::clone(&bytes_read) });
+    let options = ReaderOptions { skip_bad_lines: a.skip_bad_lines, ..ReaderOptions::default() };
+    let mut reader = CarmenReader::from_reader(input, log, options);
     let mut mapper = Mapper::new(config.clone());
-    let bar = progress_bar(a.quiet);
+    let bar = progress_bar(a.quiet, size);
     let (mut poses, mut points, mut latencies) = (Vec::new(), Vec::new(), Vec::new());
     let (mut read_time, mut map_time) = (Duration::ZERO, Duration::ZERO);
     let (mut last, mut icp_failures) = (ScanDiagnostics::default(), 0);
@@ -178,6 +180,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         });
         last = update.diagnostics;
         if poses.len() % 64 == 0 {
+            bar.set_position(bytes_read.load(Ordering::Relaxed));
             bar.set_message(format!(
                 "{} scans, {} segments",
                 poses.len(),
@@ -206,14 +209,30 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     })
 }
 
-fn progress_bar(quiet: bool) -> ProgressBar {
+/// Counts the bytes read through it, for the progress bar.
+struct CountingReader<R> {
+    inner: R,
+    count: Arc<AtomicU64>,
+}
+
+impl<R: Read> Read for CountingReader<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.count.fetch_add(n as u64, Ordering::Relaxed);
+        Ok(n)
+    }
+}
+
+/// A bar over the log's bytes with scans, segments and time left; hidden with `--quiet` or
+/// when standard error is not a terminal.
+fn progress_bar(quiet: bool, size: u64) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
     }
-    let bar = ProgressBar::new_spinner();
+    let bar = ProgressBar::new(size);
     bar.set_style(
-        ProgressStyle::with_template("{spinner} {elapsed} {msg}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        ProgressStyle::with_template("{bar:40} {percent:>3}% {elapsed}<{eta} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
     bar
 }
