@@ -22,6 +22,8 @@
 //!
 //! Run: `cargo bench -p polymap --bench stages` (all), `... -- icp` (one group),
 //! `... -- --quick` (a quick pass). Each group takes well under 30 s.
+//! `POLYMAP_BENCH_WARM_SCANS=5000 cargo bench ...` times the stages on a later, larger map
+//! instead (a source with too few scans is skipped with a message).
 
 mod support;
 
@@ -34,24 +36,23 @@ use polymap::config::Config;
 use polymap::directions::main_directions;
 use polymap::extract::extract_segments;
 use polymap::merge::{insert_vertices, restrictive_pairing, simplify};
-use support::{STEPS, Step, WARM_SCANS, sources, steps};
+use support::{STEPS, Step, sources, steps, warm_scans};
 
 /// One source's stage inputs.
 struct Source {
     name: &'static str,
+    warm: usize,
     steps: Vec<Step>,
 }
 
 fn inputs() -> Vec<Source> {
-    sources(WARM_SCANS + STEPS)
+    let warm = warm_scans();
+    sources(warm + STEPS)
         .into_iter()
-        .filter_map(|(name, scans)| match steps(&scans) {
-            Some(steps) => Some(Source { name, steps }),
+        .filter_map(|(name, scans)| match steps(&scans, warm) {
+            Some(steps) => Some(Source { name, warm, steps }),
             None => {
-                eprintln!(
-                    "SKIPPED: {name} has fewer than {} scans",
-                    WARM_SCANS + STEPS
-                );
+                eprintln!("SKIPPED: {name} has fewer than {} scans", warm + STEPS);
                 None
             }
         })
@@ -239,8 +240,8 @@ fn describe(sources: &[Source]) {
             "{}: scans {}..{}, map {:.0} segments, per scan: {:.0} points ({:.0} thinned), \
              {:.0} scan segments, {:.0} near map segments, {:.0} A_t segments, {:.0} recent",
             s.name,
-            WARM_SCANS,
-            WARM_SCANS + STEPS,
+            s.warm,
+            s.warm + STEPS,
             avg(&|st| st.mapper.map().len()),
             avg(&|st| st.points.len()),
             avg(&|st| st.thinned.len()),

@@ -48,6 +48,7 @@ impl Config {
         Config {
             align: AlignParams {
                 method: AlignMethod::Endpoints,
+                rotation_search_deg: 0.0,
                 ..d.align
             },
             directions: DirectionParams {

@@ -18,8 +18,18 @@ use polymap::scan::RangeScan;
 use polymap_io::carmen::{CarmenReader, ReaderOptions};
 use polymap_sim::{SimParams, World, simulate};
 
-/// Scans pushed to build the map state the per-stage benches start from.
+/// Scans pushed to build the map state the per-stage benches start from, unless
+/// `POLYMAP_BENCH_WARM_SCANS` says otherwise (e.g. 5000, for Intel's larger map later on).
 pub const WARM_SCANS: usize = 500;
+
+/// [`WARM_SCANS`], or `$POLYMAP_BENCH_WARM_SCANS` when that is a number of at least 2.
+pub fn warm_scans() -> usize {
+    std::env::var("POLYMAP_BENCH_WARM_SCANS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|n: &usize| *n >= 2)
+        .unwrap_or(WARM_SCANS)
+}
 /// Consecutive scans after the warm-up whose stages are timed; one bench iteration runs the
 /// stage once for each of them.
 pub const STEPS: usize = 10;
@@ -111,20 +121,19 @@ pub struct Step {
     pub a_t: Vec<Segment>,
 }
 
-/// The stage inputs of scans `WARM_SCANS..WARM_SCANS + STEPS` of `scans`, each from the map
-/// state a default-configured mapper reached just before it; `None` when there are too few
-/// scans.
-pub fn steps(scans: &[RangeScan]) -> Option<Vec<Step>> {
-    if scans.len() < WARM_SCANS + STEPS {
+/// The stage inputs of scans `warm..warm + STEPS` of `scans`, each from the map state a
+/// default-configured mapper reached just before it; `None` when there are too few scans.
+pub fn steps(scans: &[RangeScan], warm: usize) -> Option<Vec<Step>> {
+    if scans.len() < warm + STEPS || warm < 2 {
         return None;
     }
     let mut mapper = Mapper::new(Config::default());
     let mut poses: Vec<Pose2> = Vec::new();
-    for scan in &scans[..WARM_SCANS] {
+    for scan in &scans[..warm] {
         poses.push(mapper.push(scan).map_from_robot);
     }
     let mut out = Vec::with_capacity(STEPS);
-    for scan in &scans[WARM_SCANS..WARM_SCANS + STEPS] {
+    for scan in &scans[warm..warm + STEPS] {
         let before = mapper.clone();
         let update = mapper.push(scan);
         out.push(step(

@@ -20,6 +20,7 @@
 mod endpoints;
 mod nearest;
 mod point_to_segment;
+mod search;
 mod solver;
 
 use serde::{Deserialize, Serialize};
@@ -28,6 +29,7 @@ use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 pub use endpoints::align_endpoints;
 pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
+pub use search::rotation_search;
 pub use solver::Constraint;
 
 /// Which correspondences drive ICP.
@@ -71,6 +73,15 @@ pub struct AlignParams {
     pub converged_rotation_deg: f64,
     /// With fewer correspondences than this the initial guess is kept.
     pub min_correspondences: usize,
+    /// Coarse rotation search before ICP (an addition): half-width of the searched range around
+    /// the guess, degrees; 0 turns it off.
+    pub rotation_search_deg: f64,
+    /// Step of the rotation search, degrees.
+    pub rotation_search_step_deg: f64,
+    /// About this many scan points are scored per candidate rotation.
+    pub rotation_search_points: usize,
+    /// Scale of the soft inlier count of the rotation search, metres.
+    pub rotation_search_sigma_m: f64,
 }
 
 impl Default for AlignParams {
@@ -88,6 +99,10 @@ impl Default for AlignParams {
             converged_translation_m: 1e-4,
             converged_rotation_deg: 0.005,
             min_correspondences: 8,
+            rotation_search_deg: 24.0,
+            rotation_search_step_deg: 2.0,
+            rotation_search_points: 40,
+            rotation_search_sigma_m: 0.3,
         }
     }
 }

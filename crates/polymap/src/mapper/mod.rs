@@ -9,7 +9,9 @@ mod merge_step;
 
 use serde::{Deserialize, Serialize};
 
-use crate::align::{AlignMethod, AlignResult, align_endpoints, align_points, thin_points};
+use crate::align::{
+    AlignMethod, AlignResult, align_endpoints, align_points, rotation_search, thin_points,
+};
 use crate::config::Config;
 use crate::directions::main_directions;
 use crate::extract::extract_segments;
@@ -246,18 +248,21 @@ impl Mapper {
                 align_endpoints(segs_in_robot, &self.map, &near, start, anchor, params)
             }
         };
-        let from_guess = run(guess);
-        if guess == anchor || !self.config.mapper.also_start_at_anchor {
-            return Some(from_guess);
+        // Starts: the guess; the anchor when they differ (a constant-velocity guess is wrong
+        // when a turn starts, stops or reverses); the best coarse rotation when the robot turned
+        // faster than ICP's basin. The fit with the most inliers wins.
+        let mut starts = vec![guess];
+        if self.config.mapper.also_start_at_anchor && anchor != guess {
+            starts.push(anchor);
         }
-        // A constant-velocity guess is wrong when a turn starts, stops or reverses: also start
-        // from the previous pose and keep the better fit.
-        let from_anchor = run(anchor);
-        Some(if better(&from_anchor, &from_guess) {
-            from_anchor
-        } else {
-            from_guess
-        })
+        let searched = rotation_search(&points, &self.map, guess, params);
+        if searched != guess {
+            starts.push(searched);
+        }
+        starts
+            .into_iter()
+            .map(run)
+            .reduce(|best, r| if better(&r, &best) { r } else { best })
     }
 }
 
