@@ -122,11 +122,21 @@ struct Run {
 
 fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let start = Instant::now();
-    let file = std::fs::File::open(log).with_context(|| format!("{}: cannot open", log.display()))?;
+    let file =
+        std::fs::File::open(log).with_context(|| format!("{}: cannot open", log.display()))?;
     let size = file.metadata().map(|m| m.len()).unwrap_or(0);
     let bytes_read = Arc::new(AtomicU64::new(0));
-    let input = std::io::BufReader::with_capacity(1 << 16, CountingReader { inner: file, count: Arc::clone(&bytes_read) });
-    let options = ReaderOptions { skip_bad_lines: a.skip_bad_lines, ..ReaderOptions::default() };
+    let input = std::io::BufReader::with_capacity(
+        1 << 16,
+        CountingReader {
+            inner: file,
+            count: Arc::clone(&bytes_read),
+        },
+    );
+    let options = ReaderOptions {
+        skip_bad_lines: a.skip_bad_lines,
+        ..ReaderOptions::default()
+    };
     let mut reader = CarmenReader::from_reader(input, log, options);
     let mut mapper = Mapper::new(config.clone());
     let bar = progress_bar(a.quiet, size);

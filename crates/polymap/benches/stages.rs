@@ -21,7 +21,9 @@
 //! - `mapper_push`: a whole `Mapper::push`, on a clone of the mapper (cloning is not timed).
 //!
 //! Run: `cargo bench -p polymap --bench stages` (all), `... -- icp` (one group),
-//! `... -- --quick` (a quick pass). Each group takes well under 30 s.
+//! `... -- --quick` (a quick pass). Each group takes well under 30 s. Criterion's options need
+//! the benches named (`cargo bench -p polymap --bench '*' -- --quick`): the library's own
+//! libtest harness also runs under `cargo bench -p polymap` and rejects them.
 //! `POLYMAP_BENCH_WARM_SCANS=5000 cargo bench ...` times the stages on a later, larger map
 //! instead (a source with too few scans is skipped with a message).
 
@@ -95,6 +97,7 @@ fn bench_extract(c: &mut Criterion, sources: &[Source]) {
 fn bench_icp(c: &mut Criterion, sources: &[Source]) {
     let params = Config::default().align;
     let mut g = group(c, "icp");
+    g.sample_size(50);
     for s in sources {
         g.bench_function(format!("thin_points/{}", s.name), |b| {
             b.iter(|| {

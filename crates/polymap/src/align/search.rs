@@ -53,3 +53,25 @@ pub fn rotation_search(
     }
     Pose2::new(guess.x_m, guess.y_m, guess.theta_rad + best.1 as f64 * step)
 }
+
+/// About `rotation_search_points` of the points, evenly spread, for scoring poses.
+pub fn score_sample(points_in_robot: &[Vec2], params: &AlignParams) -> Vec<Vec2> {
+    let stride = (points_in_robot.len() / params.rotation_search_points.max(1)).max(1);
+    points_in_robot.iter().step_by(stride).copied().collect()
+}
+
+/// The soft inlier count of sampled points at a pose: each point within
+/// `rotation_search_sigma_m` of the map counts `1 − d²/σ²`.
+pub fn fit_score(
+    sample: &[Vec2],
+    map: &impl SegmentLookup,
+    map_from_robot: &Pose2,
+    params: &AlignParams,
+) -> f64 {
+    let sigma = params.rotation_search_sigma_m;
+    sample
+        .iter()
+        .filter_map(|p| map.nearest_segment(map_from_robot.transform_point(*p), sigma))
+        .map(|(_, pr)| 1.0 - pr.distance_2 / (sigma * sigma))
+        .sum()
+}

@@ -10,7 +10,8 @@ mod merge_step;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignResult, align_endpoints, align_points, rotation_search, thin_points,
+    AlignMethod, AlignParams, AlignResult, align_endpoints, align_points, fit_score,
+    rotation_search, score_sample, thin_points,
 };
 use crate::config::Config;
 use crate::directions::main_directions;
@@ -51,6 +52,12 @@ pub struct MapperParams {
     pub weak_direction_velocity: f64,
     /// Cell size of the map's grid index, metres (speed only; results do not depend on it).
     pub grid_cell_m: f64,
+    /// With several ICP starts, score them by the soft inlier count of a sample of points and
+    /// run ICP from the best one only (faster); otherwise run ICP from each and keep the best.
+    pub icp_from_best_start_only: bool,
+    /// Soft inlier points by which another start must beat the first (the anchor, "no
+    /// motion", when it is a start) to be chosen.
+    pub start_score_margin: f64,
 }
 
 impl Default for MapperParams {
@@ -61,6 +68,8 @@ impl Default for MapperParams {
             also_start_at_anchor: true,
             weak_direction_velocity: 0.0,
             grid_cell_m: 0.5,
+            icp_from_best_start_only: true,
+            start_score_margin: 1.0,
         }
     }
 }
@@ -253,17 +262,43 @@ impl Mapper {
         // faster than ICP's basin. The fit with the most inliers wins.
         let mut starts = vec![guess];
         if self.config.mapper.also_start_at_anchor && anchor != guess {
-            starts.push(anchor);
+            starts.insert(0, anchor);
         }
         let searched = rotation_search(&points, &self.map, guess, params);
         if searched != guess {
             starts.push(searched);
+        }
+        if self.config.mapper.icp_from_best_start_only && starts.len() > 1 {
+            let margin = self.config.mapper.start_score_margin;
+            starts = vec![best_scoring(&starts, &points, &self.map, params, margin)];
         }
         starts
             .into_iter()
             .map(run)
             .reduce(|best, r| if better(&r, &best) { r } else { best })
     }
+}
+
+/// The start whose soft inlier count over a sample of the points is highest. The first start
+/// is kept unless another beats it by `margin` (soft points): along a corridor the count is
+/// nearly flat, and the first start is "no motion".
+fn best_scoring(
+    starts: &[Pose2],
+    points: &[Vec2],
+    map: &GlobalMap,
+    params: &AlignParams,
+    margin: f64,
+) -> Pose2 {
+    let sample = score_sample(points, params);
+    let first = fit_score(&sample, map, &starts[0], params);
+    let mut best = (first + margin, starts[0]);
+    for p in &starts[1..] {
+        let s = fit_score(&sample, map, p, params);
+        if s > best.0 {
+            best = (s, *p);
+        }
+    }
+    best.1
 }
 
 /// True when `a` explains the scan better than `b`: more inliers, then a lower residual.
