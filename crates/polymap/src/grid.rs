@@ -130,17 +130,16 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     pub fn near_segment(&self, s: &Segment, margin_m: f64) -> Vec<K> {
         let (lo, hi) = s.bounds();
         let m = Vec2::splat(margin_m);
-        let mut keys = Vec::new();
-        self.for_cells(lo - m, hi + m, |list| {
-            keys.extend(
-                list.iter()
-                    .filter(|(_, t)| t.distance_to_segment_within(s, margin_m).is_some())
-                    .map(|(k, _)| *k),
-            );
-        });
-        keys.sort_unstable();
-        keys.dedup();
-        keys
+        // A segment is listed in many cells: gather, drop repeats, then measure each once.
+        let mut candidates: Vec<(K, Segment)> = Vec::new();
+        self.for_cells(lo - m, hi + m, |list| candidates.extend_from_slice(list));
+        candidates.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+        candidates.dedup_by(|a, b| a.0 == b.0);
+        candidates
+            .into_iter()
+            .filter(|(_, t)| t.distance_to_segment_within(s, margin_m).is_some())
+            .map(|(k, _)| k)
+            .collect()
     }
 
     /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come

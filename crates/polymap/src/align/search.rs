@@ -30,21 +30,18 @@ pub fn rotation_search(
     if steps <= 0 || points_in_robot.is_empty() {
         return guess;
     }
-    let stride = (points_in_robot.len() / params.rotation_search_points.max(1)).max(1);
-    let sample: Vec<Vec2> = points_in_robot.iter().step_by(stride).copied().collect();
-    let sigma_2 = params.rotation_search_sigma_m * params.rotation_search_sigma_m;
+    let sample = score_sample(points_in_robot, params);
     let score = |theta: f64| {
-        let pose = Pose2::new(guess.x_m, guess.y_m, theta);
-        sample
-            .iter()
-            .filter_map(|p| {
-                map.nearest_segment(pose.transform_point(*p), params.rotation_search_sigma_m)
-            })
-            .map(|(_, pr)| 1.0 - pr.distance_2 / sigma_2)
-            .sum::<f64>()
+        fit_score(
+            &sample,
+            map,
+            &Pose2::new(guess.x_m, guess.y_m, theta),
+            params,
+        )
     };
+    let at_guess = score(guess.theta_rad);
     let step = params.rotation_search_step_deg.to_radians();
-    let mut best = (score(guess.theta_rad), 0);
+    let mut best = (at_guess, 0);
     for k in (1..=steps).flat_map(|k| [k, -k]) {
         let s = score(guess.theta_rad + k as f64 * step);
         if s > best.0 {
