@@ -133,7 +133,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
         // A segment is listed in many cells: gather, drop repeats, then measure each once.
         let mut candidates: Vec<(K, Segment)> = Vec::new();
         self.for_cells(lo - m, hi + m, |list| candidates.extend_from_slice(list));
-        candidates.sort_unstable_by(|a, b| a.0.cmp(&b.0));
+        candidates.sort_unstable_by_key(|c| c.0);
         candidates.dedup_by(|a, b| a.0 == b.0);
         candidates
             .into_iter()
