@@ -119,7 +119,8 @@ pub struct MapArgs {
     /// A named preset: `default` or `paper`.
     #[arg(long, default_value = "default")]
     pub preset: String,
-    /// Start each ICP from the log's odometry increment (map in odometry's frame).
+    /// Start each ICP from the log's odometry increment (map in odometry's frame); also runs ICP
+    /// from every start and keeps the most inliers, which measured best with odometry.
     #[arg(long)]
     pub odometry: bool,
     /// Skip malformed log lines (counted and reported) instead of stopping at the first.
