@@ -11,6 +11,39 @@ use crate::geometry::{Segment, SegmentProjection, Vec2};
 
 type Cell = (i32, i32);
 
+/// A segment in a cell, with what the nearest query needs precomputed.
+#[derive(Debug, Clone, Copy)]
+struct Entry<K> {
+    key: K,
+    segment: Segment,
+    /// `end − start`.
+    vector: Vec2,
+    /// `1 / |end − start|²`, 0 for a degenerate segment.
+    inv_len_2: f64,
+}
+
+impl<K> Entry<K> {
+    fn new(key: K, segment: Segment) -> Self {
+        let vector = segment.vector();
+        let len_2 = vector.length_squared();
+        Entry {
+            key,
+            segment,
+            vector,
+            inv_len_2: if len_2 > 0.0 { 1.0 / len_2 } else { 0.0 },
+        }
+    }
+
+    /// Squared distance from `p` and the projection parameter, as `Segment::project` computes
+    /// them, without a division.
+    #[inline]
+    fn distance_2(&self, p: Vec2) -> (f64, f64) {
+        let w = p - self.segment.start;
+        let t = (w.dot(self.vector) * self.inv_len_2).clamp(0.0, 1.0);
+        ((w - self.vector * t).length_squared(), t)
+    }
+}
+
 /// Segments keyed by `K`, bucketed in square cells.
 ///
 /// ```
@@ -27,7 +60,7 @@ type Cell = (i32, i32);
 pub struct SegmentGrid<K> {
     cell_m: f64,
     reach_m: f64,
-    cells: FxHashMap<Cell, Vec<(K, Segment)>>,
+    cells: FxHashMap<Cell, Vec<Entry<K>>>,
 }
 
 impl<K: Copy + Ord> SegmentGrid<K> {
@@ -83,7 +116,10 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     /// Adds a segment under `key`.
     pub fn insert(&mut self, key: K, segment: Segment) {
         for c in self.cells_of(&segment) {
-            self.cells.entry(c).or_default().push((key, segment));
+            self.cells
+                .entry(c)
+                .or_default()
+                .push(Entry::new(key, segment));
         }
     }
 
@@ -91,7 +127,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     pub fn remove(&mut self, key: K, segment: &Segment) {
         for c in self.cells_of(segment) {
             if let Some(list) = self.cells.get_mut(&c) {
-                if let Some(i) = list.iter().position(|(k, _)| *k == key) {
+                if let Some(i) = list.iter().position(|e| e.key == key) {
                     list.swap_remove(i);
                 }
                 if list.is_empty() {
@@ -103,15 +139,18 @@ impl<K: Copy + Ord> SegmentGrid<K> {
 
     /// The nearest segment within `max_distance_m` of `p`, with the projection of `p` onto it;
     /// ties go to the smaller key.
-    pub fn nearest(&self, p: Vec2, max_distance_m: f64) -> Option<(K, Segment, SegmentProjection)> {
-        let mut best: Option<(K, Segment, SegmentProjection)> = None;
-        let mut consider = |list: &Vec<(K, Segment)>| {
-            for (k, s) in list {
-                let pr = s.project(p);
-                if pr.distance_2 <= max_distance_m * max_distance_m
-                    && best.is_none_or(|(bk, _, bp)| (pr.distance_2, *k) < (bp.distance_2, bk))
-                {
-                    best = Some((*k, *s, pr));
+    pub fn nearest<'a>(
+        &'a self,
+        p: Vec2,
+        max_distance_m: f64,
+    ) -> Option<(K, Segment, SegmentProjection)> {
+        let max_2 = max_distance_m * max_distance_m;
+        let mut best: Option<(f64, &'a Entry<K>)> = None;
+        let mut consider = |list: &'a Vec<Entry<K>>| {
+            for e in list {
+                let (d_2, _) = e.distance_2(p);
+                if d_2 <= max_2 && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key)) {
+                    best = Some((d_2, e));
                 }
             }
         };
@@ -123,7 +162,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
             let r = Vec2::splat(max_distance_m - self.reach_m);
             self.for_cells(p - r, p + r, |list| consider(list));
         }
-        best
+        best.map(|(_, e)| (e.key, e.segment, e.segment.project(p)))
     }
 
     /// Keys of the segments that come within `margin_m` of segment `s`, sorted, no repeats.
@@ -132,7 +171,9 @@ impl<K: Copy + Ord> SegmentGrid<K> {
         let m = Vec2::splat(margin_m);
         // A segment is listed in many cells: gather, drop repeats, then measure each once.
         let mut candidates: Vec<(K, Segment)> = Vec::new();
-        self.for_cells(lo - m, hi + m, |list| candidates.extend_from_slice(list));
+        self.for_cells(lo - m, hi + m, |list| {
+            candidates.extend(list.iter().map(|e| (e.key, e.segment)))
+        });
         candidates.sort_unstable_by_key(|c| c.0);
         candidates.dedup_by(|a, b| a.0 == b.0);
         candidates
@@ -146,13 +187,13 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     /// within reach of it), sorted, no repeats.
     pub fn in_box(&self, lo: Vec2, hi: Vec2) -> Vec<K> {
         let mut keys = Vec::new();
-        self.for_cells(lo, hi, |list| keys.extend(list.iter().map(|(k, _)| *k)));
+        self.for_cells(lo, hi, |list| keys.extend(list.iter().map(|e| e.key)));
         keys.sort_unstable();
         keys.dedup();
         keys
     }
 
-    fn for_cells(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(&Vec<(K, Segment)>)) {
+    fn for_cells<'a>(&'a self, lo: Vec2, hi: Vec2, mut f: impl FnMut(&'a Vec<Entry<K>>)) {
         let (c0, c1) = (self.cell_of(lo), self.cell_of(hi));
         let cells = (c1.0 as i64 - c0.0 as i64 + 1) * (c1.1 as i64 - c0.1 as i64 + 1);
         if cells > self.cells.len() as i64 {
