@@ -160,7 +160,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
             }
         } else {
             let r = Vec2::splat(max_distance_m - self.reach_m);
-            self.for_cells(p - r, p + r, |list| consider(list));
+            self.for_cells(p - r, p + r, consider);
         }
         best.map(|(_, e)| (e.key, e.segment, e.segment.project(p)))
     }
