@@ -26,7 +26,7 @@ use polymap::geometry::Vec2;
 use polymap::map::MapSegment;
 
 use crate::ExportError;
-use crate::frame::Bounds;
+use polymap_io::picture::Bounds;
 
 /// Layer of the map segments.
 pub const MAP_LAYER: &str = "MAP";

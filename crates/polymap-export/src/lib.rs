@@ -19,7 +19,6 @@
 
 pub mod dxf;
 mod error;
-mod frame;
 pub mod pgm;
 pub mod png;
 pub mod report;

@@ -13,6 +13,7 @@
 //! - [`tum`]: trajectories in the TUM format (`stamp x y z qx qy qz qw`), and a reader.
 //! - [`map_json`]: the `map.json` contract (segments, polylines), and a reader.
 //! - [`svg`]: the map, polylines, trajectory and scan points as a picture for a person.
+//! - [`picture`]: what every map picture shares (extent, scale bar, palette).
 //!
 //! Each format has its own error type carrying the file and, where it applies, the 1-based line.
 
@@ -21,5 +22,6 @@
 
 pub mod carmen;
 pub mod map_json;
+pub mod picture;
 pub mod svg;
 pub mod tum;

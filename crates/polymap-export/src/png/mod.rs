@@ -24,7 +24,9 @@ use polymap::map::MapSegment;
 use tiny_skia::{Color, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
 
 use crate::ExportError;
-use crate::frame::{Bounds, LOOSE_RGB, PALETTE_RGB, length_label, round_length_m};
+use polymap_io::picture::{
+    Bounds, LOOSE_RGB, PALETTE_RGB, length_label, round_length_m, view_bounds,
+};
 
 /// Default picture width, pixels.
 pub const DEFAULT_WIDTH_PX: u32 = 1600;
@@ -115,19 +117,7 @@ fn render_pixmap(scene: &PngScene<'_>) -> Result<Pixmap, ExportError> {
 
 /// The drawn area (everything plus a margin, at least 2 m across) and the picture's size.
 fn layout(scene: &PngScene<'_>) -> (View, u32, u32) {
-    let endpoints = scene
-        .segments
-        .iter()
-        .flat_map(|m| [m.segment.start, m.segment.end]);
-    let all = endpoints
-        .chain(scene.trajectory.iter().copied())
-        .chain(scene.scan_points.iter().copied());
-    let bounds = Bounds::around(all).unwrap_or(Bounds {
-        min: Vec2::splat(-1.0),
-        max: Vec2::splat(1.0),
-    });
-    let extent = bounds.size().max_element();
-    let bounds = bounds.padded(0.05 * extent + 0.5, 2.0);
+    let bounds = view_bounds(scene.segments, scene.trajectory, scene.scan_points);
     let size = bounds.size();
     let max_side = f64::from(MAX_SIDE_PX);
     let width = f64::from(scene.width_px.clamp(16, MAX_SIDE_PX));

@@ -19,22 +19,15 @@
 //! assert!(svg.contains("stroke=\"#4e79a7\""));
 //! ```
 
-mod frame;
-
 use std::fmt::Write as _;
 
 use polymap::geometry::{Segment, Vec2};
 use polymap::map::MapSegment;
 
-use frame::{Bounds, length_label, round_length_m};
+use crate::picture::{
+    Bounds, LOOSE_RGB, PALETTE_RGB, hex, length_label, round_length_m, view_bounds,
+};
 
-/// Polyline colours (Tableau 10), used in turn.
-pub const PALETTE: [&str; 10] = [
-    "#4e79a7", "#f28e2b", "#e15759", "#76b7b2", "#59a14f", "#edc948", "#b07aa1", "#ff9da7",
-    "#9c755f", "#bab0ac",
-];
-/// Colour of segments that belong to no polyline.
-const LOOSE_SEGMENT_COLOUR: &str = "#555555";
 /// Default cap on drawn scan points; more are decimated evenly.
 pub const DEFAULT_MAX_SCAN_POINTS: usize = 200_000;
 /// Picture width in CSS pixels (the height follows the map's aspect ratio).
@@ -72,7 +65,7 @@ impl Default for SvgScene<'_> {
 
 /// Renders `scene` as a standalone SVG document.
 pub fn render_svg(scene: &SvgScene<'_>) -> String {
-    let view = view_bounds(scene);
+    let view = view_bounds(scene.segments, scene.trajectory, scene.scan_points);
     let size = view.size();
     let mut svg = String::with_capacity(4096 + 24 * scene.segments.len());
     let _ = write!(
@@ -101,23 +94,6 @@ pub fn render_svg(scene: &SvgScene<'_>) -> String {
     push_title(&mut svg, &view, scene.title);
     svg.push_str("</svg>\n");
     svg
-}
-
-/// The drawn area: everything in the scene plus a margin, at least 2 m across.
-fn view_bounds(scene: &SvgScene<'_>) -> Bounds {
-    let endpoints = scene
-        .segments
-        .iter()
-        .flat_map(|m| [m.segment.start, m.segment.end]);
-    let all = endpoints
-        .chain(scene.trajectory.iter().copied())
-        .chain(scene.scan_points.iter().copied());
-    let bounds = Bounds::around(all).unwrap_or(Bounds {
-        min: Vec2::splat(-1.0),
-        max: Vec2::splat(1.0),
-    });
-    let extent = bounds.size().max_element();
-    bounds.padded(0.05 * extent + 0.5, 2.0)
 }
 
 /// Scan points as one path of zero-length round-capped strokes: dots that keep their size.
@@ -149,7 +125,7 @@ fn push_segments(svg: &mut String, scene: &SvgScene<'_>) {
         push_segment_path(
             svg,
             &segments,
-            PALETTE[k % PALETTE.len()],
+            &hex(PALETTE_RGB[k % PALETTE_RGB.len()]),
             &format!("polyline {k}"),
         );
     }
@@ -160,7 +136,7 @@ fn push_segments(svg: &mut String, scene: &SvgScene<'_>) {
         .filter(|(_, used)| !**used)
         .map(|(m, _)| m.segment)
         .collect();
-    push_segment_path(svg, &loose, LOOSE_SEGMENT_COLOUR, "segments in no polyline");
+    push_segment_path(svg, &loose, &hex(LOOSE_RGB), "segments in no polyline");
 }
 
 fn push_segment_path(svg: &mut String, segments: &[Segment], colour: &str, label: &str) {

@@ -99,7 +99,13 @@ fn each_polyline_has_its_own_colour() {
         .iter()
         .map(|n| n.attribute("stroke").unwrap())
         .collect();
-    assert_eq!(colours, PALETTE[..5].to_vec());
+    assert_eq!(
+        colours,
+        PALETTE_RGB[..5]
+            .iter()
+            .map(|c| crate::picture::hex(*c))
+            .collect::<Vec<_>>()
+    );
 }
 
 #[test]
