@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use polymap::config::Config;
 use polymap::geometry::Vec2;
-use polymap::mapper::{Mapper, MotionPrior, ScanDiagnostics};
+use polymap::mapper::{Mapper, MotionPrior, ScanDiagnostics, StageSeconds};
 use polymap_io::carmen::{CarmenReader, CarmenStats, ReaderOptions};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
 use polymap_io::tum::StampedPose;
@@ -117,6 +117,7 @@ struct Run {
     elapsed: Duration,
     last: ScanDiagnostics,
     icp_failures: u64,
+    stages: StageSeconds,
     history: ReportRecorder,
 }
 
@@ -143,6 +144,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let (mut poses, mut points, mut latencies) = (Vec::new(), Vec::new(), Vec::new());
     let (mut read_time, mut map_time) = (Duration::ZERO, Duration::ZERO);
     let (mut last, mut icp_failures) = (ScanDiagnostics::default(), 0);
+    let mut stages = StageSeconds::default();
     let mut scan_points = Vec::new();
     let mut history = ReportRecorder::new(log.display().to_string(), ReportBudget::default());
     let mut diag = match a.diagnostics {
@@ -166,6 +168,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         map_time += t2 - t1;
         latencies.push(t2 - t1);
         icp_failures += u64::from(update.diagnostics.align.is_some_and(|r| !r.converged));
+        stages += update.diagnostics.stage_s;
         if a.svg_points && points.len() < MAX_SVG_POINTS {
             scan.points_in_robot(&mut scan_points);
             points.extend(
@@ -215,6 +218,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         elapsed: start.elapsed(),
         last,
         icp_failures,
+        stages,
         history,
     })
 }
@@ -281,6 +285,7 @@ fn summary(
         "map_s": run.map_time.as_secs_f64(),
         "latency_ms": { "p50": p50, "p99": p99, "max": max },
         "icp_not_converged": run.icp_failures,
+        "stage_s": run.stages,
         "final_main_directions_deg": run.last.main_directions_deg,
         "reader": {
             "lines": run.stats.lines,
@@ -320,6 +325,14 @@ fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
             run.read_time.as_secs_f64(),
             run.map_time.as_secs_f64(),
             (run.elapsed - run.read_time - run.map_time).as_secs_f64()
+        );
+        let st = &run.stages;
+        say!(
+            "mapping stages: extract {:.3} s, align {:.3} s, directions {:.3} s, merge {:.3} s",
+            st.extract,
+            st.align,
+            st.directions,
+            st.merge
         );
         say!("per-scan mapping latency: p50 {p50:.3} ms, p99 {p99:.3} ms, max {max:.3} ms");
     }

@@ -167,13 +167,23 @@ impl<K: Copy + Ord> SegmentGrid<K> {
 
     /// Keys of the segments that come within `margin_m` of segment `s`, sorted, no repeats.
     pub fn near_segment(&self, s: &Segment, margin_m: f64) -> Vec<K> {
-        let (lo, hi) = s.bounds();
-        let m = Vec2::splat(margin_m);
         // A segment is listed in many cells: gather, drop repeats, then measure each once.
         let mut candidates: Vec<(K, Segment)> = Vec::new();
-        self.for_cells(lo - m, hi + m, |list| {
-            candidates.extend(list.iter().map(|e| (e.key, e.segment)))
-        });
+        if margin_m <= self.reach_m {
+            // Every segment within the margin of `s` is within reach of the cell holding its
+            // closest point on `s`, and so listed there: the cells `s` passes through suffice.
+            for c in self.cells_touched_by(s) {
+                if let Some(list) = self.cells.get(&c) {
+                    candidates.extend(list.iter().map(|e| (e.key, e.segment)));
+                }
+            }
+        } else {
+            let (lo, hi) = s.bounds();
+            let m = Vec2::splat(margin_m);
+            self.for_cells(lo - m, hi + m, |list| {
+                candidates.extend(list.iter().map(|e| (e.key, e.segment)))
+            });
+        }
         candidates.sort_unstable_by_key(|c| c.0);
         candidates.dedup_by(|a, b| a.0 == b.0);
         candidates
@@ -181,6 +191,27 @@ impl<K: Copy + Ord> SegmentGrid<K> {
             .filter(|(_, t)| t.distance_to_segment_within(s, margin_m).is_some())
             .map(|(k, _)| k)
             .collect()
+    }
+
+    /// The cells a segment passes through (and possibly a few neighbours): those of its
+    /// bounding box whose centre lies within half a cell diagonal of it.
+    fn cells_touched_by(&self, s: &Segment) -> Vec<Cell> {
+        let (lo, hi) = s.bounds();
+        let (c0, c1) = (self.cell_of(lo), self.cell_of(hi));
+        let limit = self.cell_m * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9);
+        let mut out = Vec::new();
+        for i in c0.0..=c1.0 {
+            for j in c0.1..=c1.1 {
+                let centre = Vec2::new(
+                    (i as f64 + 0.5) * self.cell_m,
+                    (j as f64 + 0.5) * self.cell_m,
+                );
+                if s.distance_2_to_point(centre) <= limit * limit {
+                    out.push((i, j));
+                }
+            }
+        }
+        out
     }
 
     /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come

@@ -7,6 +7,8 @@
 
 mod merge_step;
 
+use std::time::Instant;
+
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
@@ -89,6 +91,30 @@ pub struct ScanDiagnostics {
     pub merge: MergeDiagnostics,
     /// Segments in `G_t` after this scan.
     pub map_segments: usize,
+    /// Wall-clock time of each stage for this scan, seconds.
+    pub stage_s: StageSeconds,
+}
+
+/// Wall-clock seconds spent in each stage of one [`Mapper::push`].
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct StageSeconds {
+    /// Points and segment extraction.
+    pub extract: f64,
+    /// Motion prior, start selection and ICP.
+    pub align: f64,
+    /// Main directions of `G_{t-1}(tm)`.
+    pub directions: f64,
+    /// Vertex insertion, pairing, simplification and the map update.
+    pub merge: f64,
+}
+
+impl std::ops::AddAssign for StageSeconds {
+    fn add_assign(&mut self, o: StageSeconds) {
+        self.extract += o.extract;
+        self.align += o.align;
+        self.directions += o.directions;
+        self.merge += o.merge;
+    }
 }
 
 /// The result of [`Mapper::push`].
@@ -158,25 +184,30 @@ impl Mapper {
     /// Integrates one scan; afterwards [`Mapper::map`] is `G_t`.
     pub fn push(&mut self, scan: &RangeScan) -> Update {
         let t = self.scans;
+        let clock = Instant::now();
         scan.points_in_robot(&mut self.points);
         let segs_in_robot: Vec<Segment> =
             extract_segments(&self.points, scan.angle_increment_rad, &self.config.extract)
                 .iter()
                 .map(|e| e.segment)
                 .collect();
+        let extracted = Instant::now();
         let (guess, anchor) = self.guess(scan);
         let align = self.align(&segs_in_robot, guess, anchor);
         let pose = align.map_or(guess, |a| a.map_from_robot);
         self.prev_pose = self.last_pose.replace(pose);
         self.last_odom = scan.odom_from_robot;
+        let aligned = Instant::now();
         let scan_in_map: Vec<Segment> =
             segs_in_robot.iter().map(|s| s.transformed(&pose)).collect();
         let recent = self
             .map
             .born_since(t.saturating_sub(self.config.directions.time_memory_scans));
         let directions = main_directions(recent.iter(), &self.config.directions).directions_rad;
+        let directed = Instant::now();
         let merge =
             merge_step::merge_scan(&mut self.map, &scan_in_map, &directions, t, &self.config);
+        let merged = Instant::now();
         self.scans += 1;
         let diagnostics = ScanDiagnostics {
             points: self.points.len(),
@@ -185,6 +216,12 @@ impl Mapper {
             main_directions_deg: directions.iter().map(|d| d.to_degrees()).collect(),
             merge,
             map_segments: self.map.len(),
+            stage_s: StageSeconds {
+                extract: (extracted - clock).as_secs_f64(),
+                align: (aligned - extracted).as_secs_f64(),
+                directions: (directed - aligned).as_secs_f64(),
+                merge: (merged - directed).as_secs_f64(),
+            },
         };
         Update {
             scan_index: t,
