@@ -10,7 +10,8 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use polymap::config::Config;
 use polymap::geometry::Vec2;
-use polymap::mapper::{Mapper, MotionPrior, ScanDiagnostics, StageSeconds};
+use polymap::mapper::{Mapper, MotionPrior, ScanDiagnostics, StageSeconds, Update};
+use polymap::scan::RangeScan;
 use polymap_io::carmen::{CarmenReader, CarmenStats, ReaderOptions};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
 use polymap_io::tum::StampedPose;
@@ -119,10 +120,56 @@ struct Run {
     icp_failures: u64,
     stages: StageSeconds,
     history: ReportRecorder,
+    /// A reused buffer for one scan's points.
+    scan_points: Vec<Vec2>,
 }
 
 fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let start = Instant::now();
+    let (mut reader, size, bytes_read) = open_log(log, a.skip_bad_lines)?;
+    let bar = progress_bar(a.quiet, size);
+    let mut run = Run::new(Mapper::new(config.clone()), log);
+    let mut diag = match a.diagnostics {
+        true => Some(DiagnosticsWriter::create(
+            &a.output.join("diagnostics.jsonl"),
+        )?),
+        false => None,
+    };
+    while a.max_scans.is_none_or(|m| (run.poses.len() as u64) < m) {
+        let t0 = Instant::now();
+        let Some(scan) = reader.next_scan()? else {
+            break;
+        };
+        let t1 = Instant::now();
+        let update = run.mapper.push(&scan);
+        run.read_time += t1 - t0;
+        if let Some(w) = diag.as_mut() {
+            w.write(&scan.stamp.text, &update)?;
+        }
+        run.record(scan, update, t1.elapsed(), a.svg_points);
+        if run.poses.len() % 64 == 0 {
+            bar.set_position(bytes_read.load(Ordering::Relaxed));
+            bar.set_message(format!(
+                "{} scans, {} segments",
+                run.poses.len(),
+                run.last.map_segments
+            ));
+        }
+    }
+    bar.finish_and_clear();
+    if let Some(w) = diag {
+        w.finish()?;
+    }
+    run.stats = reader.stats().clone();
+    run.elapsed = start.elapsed();
+    Ok(run)
+}
+
+/// A reader over the log that counts the bytes it has read (for the progress bar), and the
+/// log's size in bytes.
+type LogReader = CarmenReader<std::io::BufReader<CountingReader<std::fs::File>>>;
+
+fn open_log(log: &Path, skip_bad_lines: bool) -> Result<(LogReader, u64, Arc<AtomicU64>)> {
     let file =
         std::fs::File::open(log).with_context(|| format!("{}: cannot open", log.display()))?;
     let size = file.metadata().map(|m| m.len()).unwrap_or(0);
@@ -135,92 +182,63 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         },
     );
     let options = ReaderOptions {
-        skip_bad_lines: a.skip_bad_lines,
+        skip_bad_lines,
         ..ReaderOptions::default()
     };
-    let mut reader = CarmenReader::from_reader(input, log, options);
-    let mut mapper = Mapper::new(config.clone());
-    let bar = progress_bar(a.quiet, size);
-    let (mut poses, mut points, mut latencies) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut read_time, mut map_time) = (Duration::ZERO, Duration::ZERO);
-    let (mut last, mut icp_failures) = (ScanDiagnostics::default(), 0);
-    let mut stages = StageSeconds::default();
-    let mut scan_points = Vec::new();
-    let mut history = ReportRecorder::new(log.display().to_string(), ReportBudget::default());
-    let mut diag = match a.diagnostics {
-        true => Some(DiagnosticsWriter::create(
-            &a.output.join("diagnostics.jsonl"),
-        )?),
-        false => None,
-    };
-    loop {
-        if a.max_scans.is_some_and(|m| poses.len() as u64 >= m) {
-            break;
+    Ok((
+        CarmenReader::from_reader(input, log, options),
+        size,
+        bytes_read,
+    ))
+}
+
+impl Run {
+    fn new(mapper: Mapper, log: &Path) -> Self {
+        Run {
+            mapper,
+            poses: Vec::new(),
+            points: Vec::new(),
+            stats: CarmenStats::default(),
+            latencies: Vec::new(),
+            read_time: Duration::ZERO,
+            map_time: Duration::ZERO,
+            elapsed: Duration::ZERO,
+            last: ScanDiagnostics::default(),
+            icp_failures: 0,
+            stages: StageSeconds::default(),
+            history: ReportRecorder::new(log.display().to_string(), ReportBudget::default()),
+            scan_points: Vec::new(),
         }
-        let t0 = Instant::now();
-        let Some(scan) = reader.next_scan()? else {
-            break;
-        };
-        let t1 = Instant::now();
-        let update = mapper.push(&scan);
-        let t2 = Instant::now();
-        read_time += t1 - t0;
-        map_time += t2 - t1;
-        latencies.push(t2 - t1);
-        icp_failures += u64::from(update.diagnostics.align.is_some_and(|r| !r.converged));
-        stages += update.diagnostics.stage_s;
-        if a.svg_points && points.len() < MAX_SVG_POINTS {
-            scan.points_in_robot(&mut scan_points);
-            points.extend(
-                scan_points
+    }
+
+    /// Keeps what the outputs need of one mapped scan; `map_time` is how long the push took.
+    fn record(&mut self, scan: RangeScan, update: Update, map_time: Duration, svg_points: bool) {
+        self.map_time += map_time;
+        self.latencies.push(map_time);
+        self.icp_failures += u64::from(update.diagnostics.align.is_some_and(|r| !r.converged));
+        self.stages += update.diagnostics.stage_s;
+        if svg_points && self.points.len() < MAX_SVG_POINTS {
+            scan.points_in_robot(&mut self.scan_points);
+            self.points.extend(
+                self.scan_points
                     .iter()
                     .map(|p| update.map_from_robot.transform_point(*p)),
             );
         }
-        history.record_update(&update, || {
+        let mapper = &self.mapper;
+        self.history.record_update(&update, || {
             SnapshotContent::of_map(
                 &mapper.segments(),
                 mapper.scans(),
                 &mapper.config().directions,
             )
         });
-        if let Some(w) = diag.as_mut() {
-            w.write(&scan.stamp.text, &update)?;
-        }
-        poses.push(StampedPose {
+        self.poses.push(StampedPose {
             stamp: scan.stamp,
             map_from_robot: update.map_from_robot,
         });
-        last = update.diagnostics;
-        if poses.len() % 64 == 0 {
-            bar.set_position(bytes_read.load(Ordering::Relaxed));
-            bar.set_message(format!(
-                "{} scans, {} segments",
-                poses.len(),
-                last.map_segments
-            ));
-            bar.tick();
-        }
+        self.last = update.diagnostics;
     }
-    bar.finish_and_clear();
-    if let Some(w) = diag {
-        w.finish()?;
-    }
-    let stats = reader.stats().clone();
-    Ok(Run {
-        mapper,
-        poses,
-        points,
-        stats,
-        latencies,
-        read_time,
-        map_time,
-        elapsed: start.elapsed(),
-        last,
-        icp_failures,
-        stages,
-        history,
-    })
 }
 
 /// Counts the bytes read through it, for the progress bar.

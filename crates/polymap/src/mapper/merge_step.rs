@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::Config;
 use crate::geometry::Segment;
 use crate::map::{GlobalMap, MapSegment, SegmentId};
-use crate::merge::{Piece, insert_vertices, restrictive_pairing, simplify};
+use crate::merge::{MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
 
 /// Counts through one merge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -44,44 +44,15 @@ pub(crate) fn merge_scan(
 ) -> MergeDiagnostics {
     let ids = local_ids(map, scan, config.mapper.merge_margin_m);
     let c1: Vec<MapSegment> = ids.iter().filter_map(|id| map.get(*id).copied()).collect();
-    let c1_segs: Vec<Segment> = c1.iter().map(|s| s.segment).collect();
-    let p = &config.merge;
-    let (map_pieces, scan_pieces) = insert_vertices(&c1_segs, scan, p);
-    let pairing = restrictive_pairing(
-        &segments(&map_pieces),
-        &segments(&scan_pieces),
-        directions_rad,
-        p,
-    );
-    let mut items: Vec<Item> = pairing
-        .children
-        .iter()
-        .map(|c| Item {
-            segment: c.segment,
-            born_scan: t,
-            unchanged: None,
-        })
-        .collect();
-    keep_non_parents(
-        &mut items,
-        &map_pieces,
-        &pairing.map_is_parent,
-        p.rejoin_unpaired_pieces,
-        |i| (c1_segs[i], c1[i].born_scan, Some(i)),
-    );
-    keep_non_parents(
-        &mut items,
-        &scan_pieces,
-        &pairing.scan_is_parent,
-        p.rejoin_unpaired_pieces,
-        |i| (scan[i], t, None),
-    );
-    let after_pairing = items.len();
+    let (items, mut diagnostics) = pair(&c1, scan, directions_rad, t, &config.merge);
     let simplified = simplify(
         &items.iter().map(|i| i.segment).collect::<Vec<_>>(),
         directions_rad,
-        p,
+        &config.merge,
     );
+    diagnostics.local_map_segments = ids.len();
+    diagnostics.merges = simplified.merges;
+    diagnostics.after_simplification = simplified.segments.len();
     let mut untouched = vec![false; ids.len()];
     let mut new_segments = Vec::new();
     for s in &simplified.segments {
@@ -106,15 +77,58 @@ pub(crate) fn merge_scan(
     for s in new_segments {
         map.insert(s);
     }
-    MergeDiagnostics {
-        local_map_segments: ids.len(),
+    diagnostics
+}
+
+/// Vertex insertion and restrictive pairing of the local map `c1` with the scan: `A_t` (the
+/// children, then the segments that were no parent) and the counts so far.
+fn pair(
+    c1: &[MapSegment],
+    scan: &[Segment],
+    directions_rad: &[f64],
+    t: u32,
+    p: &MergeParams,
+) -> (Vec<Item>, MergeDiagnostics) {
+    let c1_segs: Vec<Segment> = c1.iter().map(|s| s.segment).collect();
+    let (map_pieces, scan_pieces) = insert_vertices(&c1_segs, scan, p);
+    let pairing = restrictive_pairing(
+        &segments(&map_pieces),
+        &segments(&scan_pieces),
+        directions_rad,
+        p,
+    );
+    let mut items: Vec<Item> = pairing
+        .children
+        .iter()
+        .map(|c| Item {
+            segment: c.segment,
+            born_scan: t,
+            unchanged: None,
+        })
+        .collect();
+    let rejoin = p.rejoin_unpaired_pieces;
+    keep_non_parents(
+        &mut items,
+        &map_pieces,
+        &pairing.map_is_parent,
+        rejoin,
+        |i| (c1_segs[i], c1[i].born_scan, Some(i)),
+    );
+    keep_non_parents(
+        &mut items,
+        &scan_pieces,
+        &pairing.scan_is_parent,
+        rejoin,
+        |i| (scan[i], t, None),
+    );
+    let diagnostics = MergeDiagnostics {
         map_pieces: map_pieces.len(),
         scan_pieces: scan_pieces.len(),
         children: pairing.children.len(),
-        after_pairing,
-        merges: simplified.merges,
-        after_simplification: simplified.segments.len(),
-    }
+        after_pairing: items.len(),
+        ..MergeDiagnostics::default()
+    };
+    (items, diagnostics)
 }
 
 /// Handles of the map segments within `margin_m` of a scan segment, sorted, no repeats.
