@@ -49,6 +49,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
         }
     };
     let mut run = map_log(&log, &config, a)?;
+    check_not_empty(&log, &run)?;
     let frame = if config.mapper.motion_prior == MotionPrior::Odometry {
         FRAME_ODOMETRY
     } else {
@@ -163,6 +164,38 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     run.stats = reader.stats().clone();
     run.elapsed = start.elapsed();
     Ok(run)
+}
+
+/// A log without a single scan is the wrong file or format, not an empty map; a log whose
+/// scans hold no valid return maps to nothing, which deserves a warning.
+fn check_not_empty(log: &Path, run: &Run) -> Result<()> {
+    let s = &run.stats;
+    if run.poses.is_empty() {
+        let others: Vec<String> = s
+            .skipped_types
+            .iter()
+            .map(|(t, n)| format!("{n} {t}"))
+            .collect();
+        let seen = if others.is_empty() {
+            String::new()
+        } else {
+            format!(" (other lines: {})", others.join(", "))
+        };
+        anyhow::bail!(
+            "{}: no laser scans (FLASER or ROBOTLASER1 lines) in {} lines{seen}",
+            log.display(),
+            s.lines
+        );
+    }
+    if s.valid_readings == 0 {
+        eprintln!(
+            "polymap: warning: {}: none of the {} scans has a valid return ({} no-return readings)",
+            log.display(),
+            run.poses.len(),
+            s.no_return_readings
+        );
+    }
+    Ok(())
 }
 
 /// A reader over the log that counts the bytes it has read (for the progress bar), and the

@@ -244,3 +244,54 @@ fn closed_stdout_does_not_panic() {
         text(&o)
     );
 }
+
+#[test]
+fn a_log_without_scans_is_an_error_and_one_without_returns_a_warning() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("odometry-only.clf");
+    fs::write(
+        &log,
+        "# a log\nODOM 0 0 0 0 0 0 1.0 host 1.0\nSYNC x 1.0 host 1.0\n",
+    )
+    .unwrap();
+    let out = dir.path().join("run");
+    let o = polymap(&[
+        "map",
+        log.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("odometry-only.clf: no laser scans") && err.contains("1 SYNC"),
+        "{err}"
+    );
+    assert!(
+        !out.join("map.json").exists(),
+        "no outputs for a failed run"
+    );
+    let nans = dir.path().join("nans.clf");
+    fs::write(
+        &nans,
+        format!(
+            "FLASER 180 {} 0 0 0 0 0 0 1.5 host 1.5\n",
+            vec!["nan"; 180].join(" ")
+        ),
+    )
+    .unwrap();
+    let o = polymap(&[
+        "map",
+        nans.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("none of the 1 scans has a valid return"),
+        "{}",
+        text(&o)
+    );
+}
