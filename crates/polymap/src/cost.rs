@@ -91,7 +91,7 @@ fn hull_on_line(ld: &DirectedLine, l1: &Segment, l2: &Segment) -> Segment {
 /// use polymap::geometry::{Segment, Vec2};
 /// // Two parallel 2 m segments 0.2 m apart, fully overlapping, along ad = 0:
 /// // d(P, ld) = 0.1 for all four endpoints, lr = 2 / 4 = 0.5, all angles 0, so with K = 1
-/// // C = 2 · 0.5 · ((2+1)·0.2/2 − 2·0.2/2) / 2 = 0.1.
+/// // C = 0.5 · 2 · ((2+1)·0.2/2 − 2·0.2/2) / (1 + 1) = 0.05.
 /// let l1 = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
 /// let l2 = Segment::new(Vec2::new(0.0, 0.2), Vec2::new(2.0, 0.2));
 /// let m = cost(&l1, &l2, 0.0, 1.0).unwrap();

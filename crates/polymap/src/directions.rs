@@ -134,6 +134,12 @@ fn significant_peaks(h: &[f64], params: &DirectionParams) -> Vec<usize> {
     let mut peaks: Vec<usize> = (0..n)
         .filter(|&i| h[i] >= floor && h[i] > h[(i + n - 1) % n] && h[i] >= h[(i + 1) % n])
         .collect();
+    // A flat top (one segment smoothed over the window) is found at its left edge; take its
+    // middle, so the refinement window is centred on it.
+    for p in peaks.iter_mut() {
+        let width = (1..n).take_while(|k| h[(*p + k) % n] == h[*p]).count();
+        *p = (*p + width / 2) % n;
+    }
     peaks.sort_by(|&a, &b| h[b].total_cmp(&h[a]).then(a.cmp(&b)));
     let bin_width = PI / n as f64;
     let min_sep = params.min_separation_deg.to_radians();
@@ -216,6 +222,22 @@ mod tests {
         let degs: Vec<f64> = md.directions_rad.iter().map(|d| d.to_degrees()).collect();
         assert_eq!(degs.len(), 2, "{degs:?}");
         assert!((degs[1] - 90.0).abs() < 0.5);
+    }
+
+    /// A flat-topped peak was taken at its left edge: with a 9-bin window a wall at 30.5° came
+    /// out at 26.5°.
+    #[test]
+    fn wide_windows_still_find_the_wall() {
+        let params = DirectionParams {
+            window_bins: 9,
+            ..DirectionParams::default()
+        };
+        let md = main_directions([at(30.5, 3.0)].iter(), &params);
+        assert!(
+            (md.directions_rad[0].to_degrees() - 30.5).abs() < 1e-6,
+            "{:?}",
+            md.directions_rad
+        );
     }
 
     #[test]

@@ -9,7 +9,9 @@ use rustc_hash::FxHashMap;
 
 use crate::geometry::{Segment, SegmentProjection, Vec2};
 
-type Cell = (i32, i32);
+/// Cell coordinates: `i64`, so that any coordinate a log can hold (up to about 4e18 m at the
+/// default cell size) still indexes.
+type Cell = (i64, i64);
 
 /// A segment in a cell, with what the nearest query needs precomputed.
 #[derive(Debug, Clone, Copy)]
@@ -84,10 +86,9 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     }
 
     fn cell_of(&self, p: Vec2) -> Cell {
-        // Saturating float-to-int casts keep absurd coordinates from wrapping.
         (
-            (p.x / self.cell_m).floor() as i32,
-            (p.y / self.cell_m).floor() as i32,
+            (p.x / self.cell_m).floor() as i64,
+            (p.y / self.cell_m).floor() as i64,
         )
     }
 
@@ -226,8 +227,9 @@ impl<K: Copy + Ord> SegmentGrid<K> {
 
     fn for_cells<'a>(&'a self, lo: Vec2, hi: Vec2, mut f: impl FnMut(&'a Vec<Entry<K>>)) {
         let (c0, c1) = (self.cell_of(lo), self.cell_of(hi));
-        let cells = (c1.0 as i64 - c0.0 as i64 + 1) * (c1.1 as i64 - c0.1 as i64 + 1);
-        if cells > self.cells.len() as i64 {
+        let cells = (c1.0.saturating_sub(c0.0).saturating_add(1))
+            .saturating_mul(c1.1.saturating_sub(c0.1).saturating_add(1));
+        if cells > self.cells.len() as i64 || cells < 0 {
             // A box larger than the occupied area: walk the occupied cells instead.
             for (c, list) in &self.cells {
                 if (c0.0..=c1.0).contains(&c.0) && (c0.1..=c1.1).contains(&c.1) {
@@ -291,5 +293,24 @@ mod tests {
         grid.insert(1u8, s);
         grid.remove(1, &s);
         assert!(grid.cells.is_empty());
+    }
+}
+
+#[cfg(test)]
+mod far_tests {
+    use super::*;
+
+    /// Cells were i32 once: beyond about 1.07e9 m every segment fell in no cell and the mapper
+    /// silently stopped finding anything.
+    #[test]
+    fn far_coordinates_still_index() {
+        for offset in [1e8, 1.2e9, 1e12] {
+            let mut grid = SegmentGrid::new(0.5, 1.0);
+            let s = Segment::new(Vec2::new(offset, offset), Vec2::new(offset + 3.0, offset));
+            grid.insert(1u8, s);
+            let hit = grid.nearest(Vec2::new(offset + 1.0, offset + 0.2), 1.0);
+            assert_eq!(hit.map(|h| h.0), Some(1), "at {offset}");
+            assert_eq!(grid.near_segment(&s, 0.5), vec![1]);
+        }
     }
 }

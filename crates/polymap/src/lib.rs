@@ -7,7 +7,17 @@
 //! The pipeline, one module per stage, in order:
 //!
 //! - [`scan`]: range scans and their conversion to points.
-//! - [`geometry`]: points, SE(2) poses, segments, undirected angles.
+//! - [`extract`]: points to segments (Discrete Curve Evolution, total least squares refit).
+//! - [`polyline`]: segments to generalized polylines.
+//! - [`align`]: ICP of a scan against the map (endpoint and point-to-segment correspondences,
+//!   coarse rotation search).
+//! - [`directions`]: main directions from the length-weighted direction histogram.
+//! - [`cost`]: the merged segment `ms(L1, L2, ad)` and the cost `C(L1, L2, ad)`.
+//! - [`merge`]: vertex insertion, restrictive pairing, simplification.
+//! - [`mapper`]: the incremental loop owning `G_t`.
+//!
+//! Support: [`geometry`] (points, SE(2) poses, segments, undirected angles), [`map`] (the map
+//! store), [`grid`] (its spatial index), [`config`] (the configuration tree and presets).
 
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]

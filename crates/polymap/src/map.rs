@@ -123,7 +123,8 @@ impl GlobalMap {
         }
     }
 
-    /// Handles of the segments that cross the box `[lo, hi]` (map frame, metres), sorted.
+    /// Handles of the segments that cross the box `[lo, hi]` (map frame, metres), and possibly
+    /// some that only come within the grid's reach of it; sorted.
     pub fn query(&self, lo: Vec2, hi: Vec2) -> Vec<SegmentId> {
         self.grid.in_box(lo, hi)
     }

@@ -135,16 +135,17 @@ fn corridor_keeps_the_unobservable_direction_at_the_guess() {
 }
 
 #[test]
-fn too_few_correspondences_keep_the_guess() {
-    let guess = Pose2::new(1.0, 2.0, 0.5);
+fn too_few_correspondences_put_the_pose_on_the_anchor() {
+    let (guess, anchor) = (Pose2::new(1.0, 2.0, 0.5), Pose2::new(0.9, 2.0, 0.45));
     let r = align_points(
         &[Vec2::new(1.0, 0.0)],
         &SegmentIndex::new(room()),
         guess,
-        guess,
+        anchor,
         &AlignParams::default(),
     );
-    assert_eq!(r.map_from_robot, guess);
+    assert_eq!(r.map_from_robot, anchor);
+    assert_eq!(r.weak_directions, 3);
     assert!(!r.converged);
 }
 

@@ -31,6 +31,9 @@ pub struct ExtractParams {
     pub min_points: usize,
     /// Segments shorter than this after the refit are dropped, metres.
     pub min_length_m: f64,
+    /// Points further than this from the robot are ignored, metres (a log's own maximum range
+    /// may claim far more; absurd ranges would otherwise make huge segments).
+    pub max_range_m: f64,
 }
 
 impl Default for ExtractParams {
@@ -41,6 +44,7 @@ impl Default for ExtractParams {
             tolerance_m: 0.05,
             min_points: 5,
             min_length_m: 0.15,
+            max_range_m: 100.0,
         }
     }
 }

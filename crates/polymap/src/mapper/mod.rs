@@ -43,7 +43,7 @@ pub enum MotionPrior {
 pub struct MapperParams {
     /// The first guess for ICP.
     pub motion_prior: MotionPrior,
-    /// Map segments within this distance of the scan's segments' bounding box take part in
+    /// Map segments within this distance (segment to segment) of a scan segment take part in
     /// merging, metres (infinity: the whole map, as in the paper).
     pub merge_margin_m: f64,
     /// When the motion prior's guess differs from the anchor (the previous pose), also run ICP
@@ -186,6 +186,8 @@ impl Mapper {
         let t = self.scans;
         let clock = Instant::now();
         scan.points_in_robot(&mut self.points);
+        let max_range_2 = self.config.extract.max_range_m.powi(2);
+        self.points.retain(|p| p.length_squared() <= max_range_2);
         let segs_in_robot: Vec<Segment> =
             extract_segments(&self.points, scan.angle_increment_rad, &self.config.extract)
                 .iter()
@@ -194,7 +196,10 @@ impl Mapper {
         let extracted = Instant::now();
         let (guess, anchor) = self.guess(scan);
         let align = self.align(&segs_in_robot, guess, anchor);
-        let pose = align.map_or(guess, |a| a.map_from_robot);
+        // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
+        // like a scan with too few correspondences; the very first scan starts the map frame.
+        let fallback = if self.map.is_empty() { guess } else { anchor };
+        let pose = align.map_or(fallback, |a| a.map_from_robot);
         self.prev_pose = self.last_pose.replace(pose);
         self.last_odom = scan.odom_from_robot;
         let aligned = Instant::now();
@@ -296,7 +301,7 @@ impl Mapper {
         };
         // Starts: the guess; the anchor when they differ (a constant-velocity guess is wrong
         // when a turn starts, stops or reverses); the best coarse rotation when the robot turned
-        // faster than ICP's basin. The fit with the most inliers wins.
+        // faster than ICP's basin. Which one ICP runs from: see `icp_from_best_start_only`.
         let mut starts = vec![guess];
         if self.config.mapper.also_start_at_anchor && anchor != guess {
             starts.insert(0, anchor);

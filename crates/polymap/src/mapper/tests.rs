@@ -102,3 +102,31 @@ fn empty_scans_do_not_break_the_loop() {
     let u = mapper.push(&scan_from(&room(), &Pose2::IDENTITY, 0.1));
     assert!(u.diagnostics.scan_segments > 0 && !mapper.map().is_empty());
 }
+
+/// A scan without a valid point once kept the constant-velocity guess, so the robot drove on
+/// through every blind scan.
+#[test]
+fn blind_scans_after_the_first_stay_put() {
+    let walls = room();
+    let mut mapper = Mapper::new(Config::default());
+    for i in 0..5 {
+        mapper.push(&scan_from(
+            &walls,
+            &Pose2::new(0.1 * i as f64, 0.0, 0.0),
+            i as f64 * 0.1,
+        ));
+    }
+    let before = mapper
+        .push(&scan_from(&walls, &Pose2::new(0.4, 0.0, 0.0), 0.5))
+        .map_from_robot;
+    let mut blind = scan_from(&walls, &Pose2::new(0.4, 0.0, 0.0), 0.6);
+    blind.ranges_m.iter_mut().for_each(|r| *r = f64::NAN);
+    for k in 0..3 {
+        let u = mapper.push(&blind);
+        assert!(
+            (u.map_from_robot.translation() - before.translation()).length() < 1e-9,
+            "blind scan {k}: {:?}",
+            u.map_from_robot
+        );
+    }
+}

@@ -220,15 +220,33 @@ fn proximity_gate_keeps_collinear_walls_apart_across_a_doorway() {
 }
 
 #[test]
-fn a_parent_has_at_most_max_children() {
+fn a_parent_keeps_its_three_cheapest_children() {
     let c1 = [seg(0.0, 0.0, 4.0, 0.0)];
+    // Five scan segments along the wall at growing offsets: the three nearest are cheapest.
     let c2: Vec<Segment> = (0..5)
-        .map(|i| seg(i as f64 * 0.8, 0.02, i as f64 * 0.8 + 0.7, 0.02))
+        .map(|i| {
+            seg(
+                i as f64 * 0.8,
+                0.01 + 0.01 * i as f64,
+                i as f64 * 0.8 + 0.7,
+                0.01 + 0.01 * i as f64,
+            )
+        })
         .collect();
-    let p = restrictive_pairing(&c1, &c2, &[0.0], &MergeParams::default());
-    assert_eq!(p.children.len(), 3);
-    // The cheapest three are kept: the costs are sorted.
-    assert!(p.children.windows(2).all(|w| w[0].cost <= w[1].cost));
+    let params = MergeParams::default();
+    let p = restrictive_pairing(&c1, &c2, &[0.0], &params);
+    let mut costs: Vec<(f64, usize)> = c2
+        .iter()
+        .enumerate()
+        .map(|(j, s)| (best_merge(&c1[0], s, &[0.0], params.k).unwrap().1.cost, j))
+        .collect();
+    costs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut cheapest: Vec<usize> = costs[..3].iter().map(|c| c.1).collect();
+    let mut kept: Vec<usize> = p.children.iter().map(|c| c.scan_parent).collect();
+    cheapest.sort_unstable();
+    kept.sort_unstable();
+    assert_eq!(kept, cheapest);
+    assert_eq!(p.scan_is_parent.iter().filter(|x| **x).count(), 3);
 }
 
 #[test]
