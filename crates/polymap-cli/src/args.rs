@@ -32,7 +32,7 @@ pub struct ExportArgs {
     #[arg(long, value_delimiter = ',', required = true)]
     pub format: Vec<crate::exports::Format>,
     /// Cell size of the pgm occupancy grid, metres.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = parse_resolution)]
     pub resolution: f64,
     /// The log the run mapped, for the grid's free space (default: the one in summary.json).
     #[arg(long)]
@@ -133,7 +133,7 @@ pub struct MapArgs {
     #[arg(long)]
     pub svg_points: bool,
     /// Stop after this many scans.
-    #[arg(long)]
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub max_scans: Option<u64>,
     /// Also write per-scan diagnostics (ICP, merge counts, main directions) to
     /// DIR/diagnostics.jsonl, one JSON object per scan.
@@ -143,7 +143,7 @@ pub struct MapArgs {
     #[arg(long, value_delimiter = ',')]
     pub export: Vec<crate::exports::Format>,
     /// Cell size of the pgm occupancy grid, metres.
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = 0.05, value_parser = parse_resolution)]
     pub resolution: f64,
     /// Print where the time went.
     #[arg(long)]
@@ -151,4 +151,14 @@ pub struct MapArgs {
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// A grid resolution: finite, at least 1 mm, at most 100 m.
+fn parse_resolution(text: &str) -> Result<f64, String> {
+    let r: f64 = text.parse().map_err(|_| format!("not a number: {text}"))?;
+    if r.is_finite() && (0.001..=100.0).contains(&r) {
+        Ok(r)
+    } else {
+        Err(format!("{text} m is outside 0.001..=100 m"))
+    }
 }

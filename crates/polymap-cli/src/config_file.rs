@@ -8,15 +8,15 @@ use polymap::mapper::MotionPrior;
 
 /// Builds the configuration from a preset name, an optional TOML file and the odometry flag.
 pub fn effective_config(preset: &str, file: Option<&Path>, odometry: bool) -> Result<Config> {
+    let preset_config = Config::preset(preset)
+        .ok_or_else(|| anyhow!("unknown preset {preset:?}; known: {}", PRESETS.join(", ")))?;
     let mut config = match file {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("{}: cannot read", path.display()))?;
-            toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?
-        }
-        None => Config::preset(preset)
-            .ok_or_else(|| anyhow!("unknown preset {preset:?}; known: {}", PRESETS.join(", ")))?,
+        Some(path) => layered(preset_config, path)?,
+        None => preset_config,
     };
+    config
+        .validate()
+        .map_err(|e| anyhow!("invalid configuration: {e}"))?;
     if odometry {
         config.mapper.motion_prior = MotionPrior::Odometry;
         // Measured on intel, aces and fr079: from an odometry guess, running ICP from every
@@ -25,6 +25,30 @@ pub fn effective_config(preset: &str, file: Option<&Path>, odometry: bool) -> Re
         config.mapper.icp_from_best_start_only = false;
     }
     Ok(config)
+}
+
+/// The preset with a TOML file laid over it: keys the file sets win, the rest stay the preset's.
+fn layered(preset: Config, path: &Path) -> Result<Config> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let file: toml::Table =
+        toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    let mut merged = toml::Table::try_from(&preset).context("cannot write the preset as TOML")?;
+    merge(&mut merged, file);
+    merged
+        .try_into()
+        .map_err(|e| anyhow!("{}: {e}", path.display()))
+}
+
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (k, v) in over {
+        match (base.get_mut(&k), v) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, v) => {
+                base.insert(k, v);
+            }
+        }
+    }
 }
 
 /// The configuration as TOML text.

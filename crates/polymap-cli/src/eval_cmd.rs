@@ -75,14 +75,13 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             let map = map_segments(&run.join("map.json"))?;
             let mut out = json!({ "segments": map.len() });
             if let Some(log) = log {
-                let poses: Vec<Pose2> = read_tum(run.join("trajectory.tum"))?
-                    .into_iter()
-                    .map(|p| p.map_from_robot)
-                    .collect();
+                let trajectory = read_tum(run.join("trajectory.tum"))?;
                 let scans = read_scans(log)?;
+                let scans = matching_scans(&scans, &trajectory, log)?;
+                let poses: Vec<Pose2> = trajectory.into_iter().map(|p| p.map_from_robot).collect();
                 let fit = map_fit_to_points(
                     &map,
-                    &scans,
+                    scans,
                     &poses,
                     &PointFitParams {
                         scan_stride: (*stride).max(1),
@@ -122,6 +121,38 @@ fn map_segments(path: &Path) -> Result<Vec<Segment>> {
         .into_iter()
         .map(|s| s.segment)
         .collect())
+}
+
+/// The trajectory must hold one pose per scan of the log (or of its first scans, for a run
+/// cut short with --max-scans), each with the scan's own stamp. Returns the scans it covers.
+fn matching_scans<'a>(
+    scans: &'a [RangeScan],
+    trajectory: &[polymap_io::tum::StampedPose],
+    log: &Path,
+) -> Result<&'a [RangeScan]> {
+    if trajectory.len() > scans.len() {
+        bail!(
+            "{}: {} scans, but the trajectory has {} poses: not this log's trajectory",
+            log.display(),
+            scans.len(),
+            trajectory.len()
+        );
+    }
+    if let Some(i) = scans
+        .iter()
+        .zip(trajectory)
+        .position(|(s, p)| s.stamp.text != p.stamp.text)
+    {
+        bail!(
+            "{}: scan {} has stamp {} but trajectory pose {} has {}",
+            log.display(),
+            i + 1,
+            scans[i].stamp.text,
+            i + 1,
+            trajectory[i].stamp.text
+        );
+    }
+    Ok(&scans[..trajectory.len()])
 }
 
 fn read_scans(log: &Path) -> Result<Vec<RangeScan>> {

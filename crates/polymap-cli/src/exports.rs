@@ -4,7 +4,7 @@
 use std::cell::RefCell;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::ValueEnum;
 use polymap::geometry::{Pose2, Vec2};
 use polymap::map::MapSegment;
@@ -12,7 +12,7 @@ use polymap_export::dxf::{DxfScene, write_dxf};
 use polymap_export::pgm::{GridParams, OccupancyGrid, write_map_server};
 use polymap_export::png::{PngScene, write_png};
 use polymap_export::report::{ReportData, write_report_html};
-use polymap_io::carmen::{CarmenError, CarmenReader, ReaderOptions};
+use polymap_io::carmen::{CarmenReader, ReaderOptions};
 use polymap_io::tum::StampedPose;
 
 /// An export format.
@@ -117,25 +117,47 @@ fn occupancy_grid(input: &ExportInput<'_>) -> Result<OccupancyGrid> {
             ..ReaderOptions::default()
         },
     )?;
-    let failure: RefCell<Option<CarmenError>> = RefCell::new(None);
-    let mut poses = input.trajectory.iter();
-    let rays = std::iter::from_fn(|| match reader.next_scan() {
-        Ok(Some(scan)) => {
-            let pose = poses.next()?;
-            let mut points = Vec::new();
-            scan.points_in_robot(&mut points);
-            Some((pose.map_from_robot, points))
-        }
-        Ok(None) => None,
-        Err(e) => {
+    let failure: RefCell<Option<anyhow::Error>> = RefCell::new(None);
+    let mut poses = input.trajectory.iter().enumerate();
+    let rays = std::iter::from_fn(|| {
+        let fail = |e: anyhow::Error| {
             *failure.borrow_mut() = Some(e);
             None
+        };
+        match (reader.next_scan(), poses.next()) {
+            (Ok(Some(scan)), Some((_, pose))) if scan.stamp.text == pose.stamp.text => {
+                let mut points = Vec::new();
+                scan.points_in_robot(&mut points);
+                Some((pose.map_from_robot, points))
+            }
+            (Ok(Some(scan)), Some((i, pose))) => fail(anyhow::anyhow!(
+                "trajectory pose {} has stamp {} but scan {} of the log has {}: not this log's trajectory",
+                i + 1,
+                pose.stamp.text,
+                i + 1,
+                scan.stamp.text
+            )),
+            (Ok(Some(_)), None) => {
+                eprintln!(
+                    "polymap: note: the trajectory covers the first {} scans of the log",
+                    input.trajectory.len()
+                );
+                None
+            }
+            (Ok(None), Some(_)) => fail(anyhow::anyhow!(
+                "the trajectory has {} poses, more than the log has scans: not this log's trajectory",
+                input.trajectory.len()
+            )),
+            (Ok(None), None) => None,
+            (Err(e), _) => fail(e.into()),
         }
     });
     let grid = OccupancyGrid::build(&segments, rays, &params)?;
     if let Some(e) = failure.into_inner() {
-        return Err(e)
-            .with_context(|| format!("re-reading {} for the occupancy grid", log.display()));
+        return Err(e.context(format!(
+            "re-reading {} for the occupancy grid",
+            log.display()
+        )));
     }
     Ok(grid)
 }

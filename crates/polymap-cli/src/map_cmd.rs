@@ -325,7 +325,7 @@ fn summary(
     let elapsed_s = run.elapsed.as_secs_f64();
     let [p50, p99, max] = percentiles_ms(&run.latencies);
     Ok(json!({
-        "log": log.display().to_string(),
+        "log": std::fs::canonicalize(log).unwrap_or_else(|_| log.to_path_buf()).display().to_string(),
         "scans": scans,
         "points": run.stats.valid_readings,
         "segments": segments,

@@ -62,7 +62,9 @@ pub struct SegmentJson {
     pub end: [f64; 2],
     /// 0-based index of the scan whose merge created the segment.
     pub born_scan: u32,
-    /// Length, metres (derived from the endpoints; written for convenience).
+    /// Length, metres (derived from the endpoints; written for convenience, optional when
+    /// read, never trusted over the endpoints).
+    #[serde(default)]
     pub length_m: f64,
 }
 

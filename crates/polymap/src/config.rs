@@ -74,6 +74,77 @@ impl Config {
         }
     }
 
+    /// Checks that every value is in a range the pipeline can work with; the message names
+    /// the first key that is not.
+    ///
+    /// ```
+    /// let mut c = polymap::config::Config::default();
+    /// assert!(c.validate().is_ok());
+    /// c.directions.bins = 0;
+    /// assert!(c.validate().unwrap_err().contains("directions.bins"));
+    /// ```
+    pub fn validate(&self) -> Result<(), String> {
+        let (e, a, d, m, p) = (
+            &self.extract,
+            &self.align,
+            &self.directions,
+            &self.merge,
+            &self.mapper,
+        );
+        let checks: [(&str, bool); 16] = [
+            (
+                "extract.tolerance_m",
+                e.tolerance_m.is_finite() && e.tolerance_m > 0.0,
+            ),
+            (
+                "extract.max_range_m",
+                e.max_range_m.is_finite() && e.max_range_m > 0.0 && e.max_range_m <= 1e4,
+            ),
+            ("extract.min_points", e.min_points >= 2),
+            (
+                "align.initial_gate_m",
+                a.initial_gate_m.is_finite() && a.initial_gate_m > 0.0 && a.initial_gate_m <= 100.0,
+            ),
+            (
+                "align.final_gate_m",
+                a.final_gate_m > 0.0 && a.final_gate_m <= a.initial_gate_m,
+            ),
+            (
+                "align.gate_decay",
+                a.gate_decay > 0.0 && a.gate_decay <= 1.0,
+            ),
+            ("align.max_iterations", a.max_iterations <= 10_000),
+            (
+                "align.rotation_search_deg",
+                (0.0..=180.0).contains(&a.rotation_search_deg),
+            ),
+            (
+                "align.rotation_search_step_deg",
+                a.rotation_search_step_deg >= 0.1 && a.rotation_search_step_deg <= 90.0,
+            ),
+            ("directions.bins", (1..=3600).contains(&d.bins)),
+            (
+                "directions.window_bins",
+                d.window_bins >= 1 && d.window_bins <= d.bins,
+            ),
+            ("merge.k", m.k.is_finite() && m.k >= 0.0),
+            ("merge.max_gap_m", m.max_gap_m >= 0.0),
+            (
+                "merge.pairing_threshold",
+                m.pairing_threshold.is_finite() && m.simplify_threshold.is_finite(),
+            ),
+            (
+                "mapper.grid_cell_m",
+                p.grid_cell_m.is_finite() && (0.05..=100.0).contains(&p.grid_cell_m),
+            ),
+            ("mapper.merge_margin_m", p.merge_margin_m >= 0.0),
+        ];
+        match checks.iter().find(|(_, ok)| !ok) {
+            Some((key, _)) => Err(format!("{key} is out of range")),
+            None => Ok(()),
+        }
+    }
+
     /// A preset by name (see [`PRESETS`]).
     pub fn preset(name: &str) -> Option<Self> {
         match name {

@@ -295,3 +295,91 @@ fn a_log_without_scans_is_an_error_and_one_without_returns_a_warning() {
         text(&o)
     );
 }
+
+/// Export and eval once paired log scans with trajectory poses by position, silently.
+#[test]
+fn a_trajectory_that_does_not_match_the_log_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    assert!(polymap(&["simulate", "office", "-o", d]).status.success());
+    let run = format!("{d}/run");
+    assert!(
+        polymap(&[
+            "map",
+            &format!("{d}/office.clf"),
+            "-o",
+            &run,
+            "-q",
+            "--max-scans",
+            "200"
+        ])
+        .status
+        .success()
+    );
+    // A prefix of the log is fine (a run cut short), and said so.
+    let o = polymap(&["export", &run, "--format", "pgm"]);
+    assert!(
+        o.status.success() && String::from_utf8_lossy(&o.stderr).contains("first 200 scans"),
+        "{}",
+        text(&o)
+    );
+    // Another log's trajectory (stamps changed) is refused by both commands.
+    let traj = format!("{run}/trajectory.tum");
+    let shifted: String = fs::read_to_string(&traj)
+        .unwrap()
+        .lines()
+        .map(|l| format!("9{l}\n"))
+        .collect();
+    fs::write(&traj, shifted).unwrap();
+    let o = polymap(&["export", &run, "--format", "pgm"]);
+    assert!(
+        !o.status.success()
+            && String::from_utf8_lossy(&o.stderr).contains("not this log's trajectory"),
+        "{}",
+        text(&o)
+    );
+    let o = polymap(&["eval", "map", &run, "--log", &format!("{d}/office.clf")]);
+    assert!(
+        !o.status.success() && String::from_utf8_lossy(&o.stderr).contains("has stamp"),
+        "{}",
+        text(&o)
+    );
+}
+
+/// --config once replaced the preset instead of being laid over it.
+#[test]
+fn a_config_file_is_laid_over_the_preset_and_bad_values_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let partial = dir.path().join("partial.toml");
+    fs::write(&partial, "[merge]\nk = 2.0\n").unwrap();
+    let o = polymap(&[
+        "map",
+        "--preset",
+        "paper",
+        "--config",
+        partial.to_str().unwrap(),
+        "--print-config",
+    ]);
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        printed.contains("k = 2.0") && printed.contains("method = \"endpoints\""),
+        "{printed}"
+    );
+    fs::write(&partial, "[directions]\nbins = 0\n").unwrap();
+    let o = polymap(&[
+        "map",
+        "--config",
+        partial.to_str().unwrap(),
+        "--print-config",
+    ]);
+    assert!(
+        !o.status.success() && String::from_utf8_lossy(&o.stderr).contains("directions.bins"),
+        "{}",
+        text(&o)
+    );
+    assert!(
+        !polymap(&["map", "--max-scans", "0", "--print-config"])
+            .status
+            .success()
+    );
+}
