@@ -95,10 +95,16 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     /// The cells a segment is listed in: those whose centre lies within reach plus half a cell
     /// diagonal of it.
     fn cells_of(&self, s: &Segment) -> Vec<Cell> {
+        let half_diagonal = self.cell_m * std::f64::consts::FRAC_1_SQRT_2;
+        self.cells_around(s, self.reach_m + self.cell_m, self.reach_m + half_diagonal)
+    }
+
+    /// The cells of the segment's bounding box grown by `grow_m` whose centre lies within
+    /// `limit_m` of the segment.
+    fn cells_around(&self, s: &Segment, grow_m: f64, limit_m: f64) -> Vec<Cell> {
         let (lo, hi) = s.bounds();
-        let r = Vec2::splat(self.reach_m + self.cell_m);
-        let (c0, c1) = (self.cell_of(lo - r), self.cell_of(hi + r));
-        let limit = self.reach_m + self.cell_m * std::f64::consts::FRAC_1_SQRT_2;
+        let g = Vec2::splat(grow_m);
+        let (c0, c1) = (self.cell_of(lo - g), self.cell_of(hi + g));
         let mut out = Vec::new();
         for i in c0.0..=c1.0 {
             for j in c0.1..=c1.1 {
@@ -106,7 +112,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
                     (i as f64 + 0.5) * self.cell_m,
                     (j as f64 + 0.5) * self.cell_m,
                 );
-                if s.distance_2_to_point(centre) <= limit * limit {
+                if s.distance_2_to_point(centre) <= limit_m * limit_m {
                     out.push((i, j));
                 }
             }
@@ -197,22 +203,11 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     /// The cells a segment passes through (and possibly a few neighbours): those of its
     /// bounding box whose centre lies within half a cell diagonal of it.
     fn cells_touched_by(&self, s: &Segment) -> Vec<Cell> {
-        let (lo, hi) = s.bounds();
-        let (c0, c1) = (self.cell_of(lo), self.cell_of(hi));
-        let limit = self.cell_m * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9);
-        let mut out = Vec::new();
-        for i in c0.0..=c1.0 {
-            for j in c0.1..=c1.1 {
-                let centre = Vec2::new(
-                    (i as f64 + 0.5) * self.cell_m,
-                    (j as f64 + 0.5) * self.cell_m,
-                );
-                if s.distance_2_to_point(centre) <= limit * limit {
-                    out.push((i, j));
-                }
-            }
-        }
-        out
+        self.cells_around(
+            s,
+            0.0,
+            self.cell_m * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9),
+        )
     }
 
     /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come
