@@ -84,12 +84,15 @@ impl View {
 
 /// Renders the scene to PNG bytes.
 pub fn render_png(scene: &PngScene<'_>) -> Result<Vec<u8>, ExportError> {
-    encode(&render_pixmap(scene)?, Path::new(""))
+    encode(
+        &render_pixmap(scene, Path::new("map.png"))?,
+        Path::new("map.png"),
+    )
 }
 
 /// Renders the scene and writes it to `path`.
 pub fn write_png(path: &Path, scene: &PngScene<'_>) -> Result<(), ExportError> {
-    let bytes = encode(&render_pixmap(scene)?, path)?;
+    let bytes = encode(&render_pixmap(scene, path)?, path)?;
     std::fs::write(path, bytes).map_err(|e| ExportError::io(path, e))
 }
 
@@ -100,11 +103,17 @@ fn encode(pixmap: &Pixmap, path: &Path) -> Result<Vec<u8>, ExportError> {
     })
 }
 
-/// The picture as pixels.
-fn render_pixmap(scene: &PngScene<'_>) -> Result<Pixmap, ExportError> {
+/// The picture as pixels; `path` names the picture in errors.
+fn render_pixmap(scene: &PngScene<'_>, path: &Path) -> Result<Pixmap, ExportError> {
     let (view, width, height) = layout(scene);
+    if !(view.bounds.size().is_finite() && view.px_per_m.is_finite() && view.px_per_m > 0.0) {
+        return Err(ExportError::Png {
+            path: path.to_owned(),
+            message: "the map's extent is not finite (coordinates too large to draw)".to_owned(),
+        });
+    }
     let mut pixmap = Pixmap::new(width, height).ok_or_else(|| ExportError::Png {
-        path: Default::default(),
+        path: path.to_owned(),
         message: format!("cannot allocate a {width} x {height} picture"),
     })?;
     pixmap.fill(Color::WHITE);

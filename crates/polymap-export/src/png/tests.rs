@@ -97,3 +97,29 @@ fn write_png_names_the_file_on_error() {
         "{err}"
     );
 }
+
+/// A map too large to draw once failed with an empty file name and a "0 x 0 picture".
+#[test]
+fn a_map_too_large_to_draw_is_a_clear_error_naming_the_file() {
+    use polymap::geometry::Segment;
+    use polymap::map::MapSegment;
+    let huge = [MapSegment {
+        segment: Segment::new(Vec2::new(-1.7e308, 0.0), Vec2::new(1.7e308, 1.0)),
+        born_scan: 0,
+    }];
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("big.png");
+    let err = write_png(
+        &path,
+        &PngScene {
+            segments: &huge,
+            ..PngScene::default()
+        },
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("big.png") && err.contains("not finite"),
+        "{err}"
+    );
+}
