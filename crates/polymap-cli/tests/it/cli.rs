@@ -2,7 +2,7 @@
 
 use std::fs;
 
-use crate::support::{polymap, text};
+use crate::support::{map_quietly, polymap, text};
 
 #[test]
 fn map_without_a_log_maps_the_built_in_world_and_writes_the_contract() {
@@ -55,25 +55,12 @@ fn a_truncated_line_is_an_error_naming_file_and_line_unless_skipped() {
     );
     fs::write(&log, format!("{good}{good}FLASER 180 2.0 2.0\n{good}")).unwrap();
     let out = dir.path().join("run");
-    let o = polymap(&[
-        "map",
-        log.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = map_quietly(&log, &out, &[]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("bad.clf:3"), "names file and line: {err}");
     assert_eq!(err.trim().lines().count(), 1, "one line: {err}");
-    let o = polymap(&[
-        "map",
-        log.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-        "--skip-bad-lines",
-    ]);
+    let o = map_quietly(&log, &out, &["--skip-bad-lines"]);
     assert!(o.status.success(), "{}", text(&o));
     assert!(
         String::from_utf8_lossy(&o.stderr).contains("skipped 1 malformed line"),
@@ -255,13 +242,7 @@ fn a_log_without_scans_is_an_error_and_one_without_returns_a_warning() {
     )
     .unwrap();
     let out = dir.path().join("run");
-    let o = polymap(&[
-        "map",
-        log.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = map_quietly(&log, &out, &[]);
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -281,13 +262,7 @@ fn a_log_without_scans_is_an_error_and_one_without_returns_a_warning() {
         ),
     )
     .unwrap();
-    let o = polymap(&[
-        "map",
-        nans.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = map_quietly(&nans, &out, &[]);
     assert!(o.status.success(), "{}", text(&o));
     assert!(
         String::from_utf8_lossy(&o.stderr).contains("none of the 1 scans has a valid return"),

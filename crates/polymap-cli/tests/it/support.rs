@@ -16,6 +16,19 @@ pub fn polymap(args: &[&str]) -> Output {
         .expect("the polymap binary runs")
 }
 
+/// `polymap map LOG -o OUT -q EXTRA…`.
+pub fn map_quietly(log: &Path, out: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "map",
+        log.to_str().expect("a UTF-8 temp path"),
+        "-o",
+        out.to_str().expect("a UTF-8 temp path"),
+        "-q",
+    ];
+    args.extend_from_slice(extra);
+    polymap(&args)
+}
+
 /// Standard error and output as text, for failure messages.
 pub fn text(o: &Output) -> String {
     format!(

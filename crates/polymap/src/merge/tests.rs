@@ -122,14 +122,19 @@ fn fig5() -> (Vec<Segment>, Vec<Segment>) {
     (map, scan)
 }
 
+/// Fig. 5 needs cuts closer together than the default minimum piece.
+fn fig5_params() -> MergeParams {
+    MergeParams {
+        insert_min_piece_m: 0.005,
+        ..MergeParams::default()
+    }
+}
+
 /// Fig. 5: the straight scan segment is split at the projections of the triangle's vertices.
 #[test]
 fn fig5_scan_segment_is_split_at_projected_vertices() {
     let (map, scan) = fig5();
-    let p = MergeParams {
-        insert_min_piece_m: 0.005,
-        ..MergeParams::default()
-    };
+    let p = fig5_params();
     let (map_pieces, scan_pieces) = insert_vertices(&map, &scan, &p);
     assert_eq!(
         map_pieces.len(),
@@ -155,10 +160,7 @@ fn fig5_scan_segment_is_split_at_projected_vertices() {
 #[test]
 fn fig6_lowering_tp_goes_from_only_children_to_none() {
     let (map, scan) = fig5();
-    let p = MergeParams {
-        insert_min_piece_m: 0.005,
-        ..MergeParams::default()
-    };
+    let p = fig5_params();
     let (mp, sp) = insert_vertices(&map, &scan, &p);
     let c1: Vec<Segment> = mp.iter().map(|q| q.segment).collect();
     let c2: Vec<Segment> = sp.iter().map(|q| q.segment).collect();
