@@ -31,9 +31,18 @@ pub struct DirectedLine {
 impl DirectedLine {
     /// `ld` between `l1` and `l2`; `None` when both segments have zero length.
     pub fn between(l1: &Segment, l2: &Segment, ad_rad: f64) -> Option<DirectedLine> {
-        let direction = Vec2::new(ad_rad.cos(), ad_rad.sin());
+        Self::between_lengths(l1, l1.length(), l2, l2.length(), unit(ad_rad))
+    }
+
+    /// [`DirectedLine::between`] with the segments' lengths and the unit direction given.
+    fn between_lengths(
+        l1: &Segment,
+        len1: f64,
+        l2: &Segment,
+        len2: f64,
+        direction: Vec2,
+    ) -> Option<DirectedLine> {
         let normal = direction.perp();
-        let (len1, len2) = (l1.length(), l2.length());
         if len1 + len2 <= 0.0 {
             return None;
         }
@@ -98,10 +107,21 @@ fn hull_on_line(ld: &DirectedLine, l1: &Segment, l2: &Segment) -> Segment {
 /// assert!((m.cost - 0.05).abs() < 1e-12);
 /// ```
 pub fn cost(l1: &Segment, l2: &Segment, ad_rad: f64, k: f64) -> Option<Merge> {
-    let ld = DirectedLine::between(l1, l2, ad_rad)?;
-    let ms = hull_on_line(&ld, l1, l2);
+    cost_along(l1, l2, unit(ad_rad), k)
+}
+
+/// The unit vector of a direction, as every cost computation makes it.
+pub(crate) fn unit(ad_rad: f64) -> Vec2 {
+    Vec2::new(ad_rad.cos(), ad_rad.sin())
+}
+
+/// [`cost`] along a main direction given as its unit vector ([`unit`]), so callers costing many
+/// pairs compute it once.
+pub(crate) fn cost_along(l1: &Segment, l2: &Segment, direction: Vec2, k: f64) -> Option<Merge> {
     let (v1, v2) = (l1.vector(), l2.vector());
     let (len1, len2) = (v1.length(), v2.length());
+    let ld = DirectedLine::between_lengths(l1, len1, l2, len2, direction)?;
+    let ms = hull_on_line(&ld, l1, l2);
     // Cosines of the undirected angles in [0°, 90°]: |u·w| of unit vectors; a zero-length
     // segment makes no angle (cosine 1), as its direction would be 0 anyway.
     let cos_between = |a: Vec2, la: f64, b: Vec2, lb: f64| {

@@ -22,17 +22,25 @@ struct Entry<K> {
     vector: Vec2,
     /// `1 / |end − start|²`, 0 for a degenerate segment.
     inv_len_2: f64,
+    /// A lower bound of the squared distance from any point of the cell to the segment, m².
+    /// Lists are sorted by it, so a query can stop at the first entry that cannot be nearer.
+    floor_2: f64,
 }
 
 impl<K> Entry<K> {
-    fn new(key: K, segment: Segment) -> Self {
+    /// The entry of `segment` in a cell whose centre is `centre_distance_m` from it, for cells
+    /// of half-diagonal `half_diagonal_m` (metres).
+    fn new(key: K, segment: Segment, centre_distance_m: f64, half_diagonal_m: f64) -> Self {
         let vector = segment.vector();
         let len_2 = vector.length_squared();
+        // Triangle inequality, shrunk by a relative hair against rounding.
+        let floor = ((centre_distance_m - half_diagonal_m) * (1.0 - 1e-9)).max(0.0);
         Entry {
             key,
             segment,
             vector,
             inv_len_2: if len_2 > 0.0 { 1.0 / len_2 } else { 0.0 },
+            floor_2: floor * floor,
         }
     }
 
@@ -94,14 +102,18 @@ impl<K: Copy + Ord> SegmentGrid<K> {
 
     /// The cells a segment is listed in: those whose centre lies within reach plus half a cell
     /// diagonal of it.
-    fn cells_of(&self, s: &Segment) -> Vec<Cell> {
-        let half_diagonal = self.cell_m * std::f64::consts::FRAC_1_SQRT_2;
+    fn cells_of(&self, s: &Segment) -> Vec<(Cell, f64)> {
+        let half_diagonal = self.half_diagonal_m();
         self.cells_around(s, self.reach_m + self.cell_m, self.reach_m + half_diagonal)
     }
 
+    fn half_diagonal_m(&self) -> f64 {
+        self.cell_m * std::f64::consts::FRAC_1_SQRT_2
+    }
+
     /// The cells of the segment's bounding box grown by `grow_m` whose centre lies within
-    /// `limit_m` of the segment.
-    fn cells_around(&self, s: &Segment, grow_m: f64, limit_m: f64) -> Vec<Cell> {
+    /// `limit_m` of the segment, each with that distance (metres).
+    fn cells_around(&self, s: &Segment, grow_m: f64, limit_m: f64) -> Vec<(Cell, f64)> {
         let (lo, hi) = s.bounds();
         let g = Vec2::splat(grow_m);
         let (c0, c1) = (self.cell_of(lo - g), self.cell_of(hi + g));
@@ -112,8 +124,9 @@ impl<K: Copy + Ord> SegmentGrid<K> {
                     (i as f64 + 0.5) * self.cell_m,
                     (j as f64 + 0.5) * self.cell_m,
                 );
-                if s.distance_2_to_point(centre) <= limit_m * limit_m {
-                    out.push((i, j));
+                let d_2 = s.distance_2_to_point(centre);
+                if d_2 <= limit_m * limit_m {
+                    out.push(((i, j), d_2.sqrt()));
                 }
             }
         }
@@ -122,20 +135,21 @@ impl<K: Copy + Ord> SegmentGrid<K> {
 
     /// Adds a segment under `key`.
     pub fn insert(&mut self, key: K, segment: Segment) {
-        for c in self.cells_of(&segment) {
-            self.cells
-                .entry(c)
-                .or_default()
-                .push(Entry::new(key, segment));
+        let half_diagonal = self.half_diagonal_m();
+        for (c, centre_distance) in self.cells_of(&segment) {
+            let entry = Entry::new(key, segment, centre_distance, half_diagonal);
+            let list = self.cells.entry(c).or_default();
+            let at = list.partition_point(|e| e.floor_2 <= entry.floor_2);
+            list.insert(at, entry);
         }
     }
 
     /// Removes the segment stored under `key` (pass the same segment as inserted).
     pub fn remove(&mut self, key: K, segment: &Segment) {
-        for c in self.cells_of(segment) {
+        for (c, _) in self.cells_of(segment) {
             if let Some(list) = self.cells.get_mut(&c) {
                 if let Some(i) = list.iter().position(|e| e.key == key) {
-                    list.swap_remove(i);
+                    list.remove(i); // keeps the order by distance floor
                 }
                 if list.is_empty() {
                     self.cells.remove(&c);
@@ -153,7 +167,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     ) -> Option<(K, Segment, SegmentProjection)> {
         let max_2 = max_distance_m * max_distance_m;
         let mut best: Option<(f64, &'a Entry<K>)> = None;
-        let mut consider = |list: &'a Vec<Entry<K>>| {
+        let consider = |list: &'a Vec<Entry<K>>| {
             for e in list {
                 let (d_2, _) = e.distance_2(p);
                 if d_2 <= max_2 && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key)) {
@@ -162,8 +176,18 @@ impl<K: Copy + Ord> SegmentGrid<K> {
             }
         };
         if max_distance_m <= self.reach_m {
+            // `p` is in this cell: entries come by increasing distance floor, so the walk ends
+            // at the first one that can be neither within reach nor nearer than the best.
             if let Some(list) = self.cells.get(&self.cell_of(p)) {
-                consider(list);
+                for e in list {
+                    if e.floor_2 > max_2 || best.is_some_and(|(bd, _)| e.floor_2 > bd) {
+                        break;
+                    }
+                    let (d_2, _) = e.distance_2(p);
+                    if d_2 <= max_2 && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key)) {
+                        best = Some((d_2, e));
+                    }
+                }
             }
         } else {
             let r = Vec2::splat(max_distance_m - self.reach_m);
@@ -203,11 +227,10 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     /// The cells a segment passes through (and possibly a few neighbours): those of its
     /// bounding box whose centre lies within half a cell diagonal of it.
     fn cells_touched_by(&self, s: &Segment) -> Vec<Cell> {
-        self.cells_around(
-            s,
-            0.0,
-            self.cell_m * std::f64::consts::FRAC_1_SQRT_2 * (1.0 + 1e-9),
-        )
+        self.cells_around(s, 0.0, self.half_diagonal_m() * (1.0 + 1e-9))
+            .into_iter()
+            .map(|(c, _)| c)
+            .collect()
     }
 
     /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come

@@ -21,8 +21,12 @@ pub(crate) fn expanded_envelope(s: &Segment, margin_m: f64) -> AABB<[f64; 2]> {
     )
 }
 
+/// Up to this many pairs, testing every pair beats building an R-tree (a scan against its
+/// local map is typically 10 × 30 segments).
+pub(crate) const BRUTE_FORCE_PAIRS: usize = 4096;
+
 /// All pairs `(i, j)` with `a[i]` and `b[j]` no further than `gap_m` apart (segment to segment),
-/// sorted. Uses an R-tree over `b`; with an infinite gap every pair qualifies.
+/// sorted. Uses an R-tree over `b` for large inputs; with an infinite gap every pair qualifies.
 ///
 /// ```
 /// use polymap::merge::pairs_within;
@@ -32,7 +36,7 @@ pub(crate) fn expanded_envelope(s: &Segment, margin_m: f64) -> AABB<[f64; 2]> {
 /// assert_eq!(pairs_within(&a, &b, 0.5), vec![(0, 0)]);
 /// ```
 pub fn pairs_within(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usize, usize)> {
-    if !gap_m.is_finite() {
+    if !gap_m.is_finite() || a.len().saturating_mul(b.len()) <= BRUTE_FORCE_PAIRS {
         return pairs_within_brute(a, b, gap_m);
     }
     let tree = RTree::bulk_load(b.iter().enumerate().map(|(j, s)| box_entry(s, j)).collect());
@@ -53,7 +57,7 @@ pub fn pairs_within_brute(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usiz
     let mut out = Vec::new();
     for (i, s) in a.iter().enumerate() {
         for (j, t) in b.iter().enumerate() {
-            if s.distance_to_segment(t) <= gap_m {
+            if s.distance_to_segment_within(t, gap_m).is_some() {
                 out.push((i, j));
             }
         }

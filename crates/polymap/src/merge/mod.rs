@@ -13,8 +13,8 @@ mod simplify;
 
 use serde::{Deserialize, Serialize};
 
-use crate::cost::{Merge, cost};
-use crate::geometry::Segment;
+use crate::cost::{Merge, cost_along, unit};
+use crate::geometry::{Segment, Vec2};
 pub use candidates::{pairs_within, pairs_within_brute};
 pub use insertion::{Piece, insert_vertices};
 pub use pairing::{Child, Pairing, restrictive_pairing};
@@ -72,9 +72,24 @@ pub fn best_merge(
     directions_rad: &[f64],
     k: f64,
 ) -> Option<(usize, Merge)> {
+    best_merge_along(l1, l2, &units(directions_rad), k)
+}
+
+/// The unit vectors of main directions, for [`best_merge_along`].
+pub(crate) fn units(directions_rad: &[f64]) -> Vec<Vec2> {
+    directions_rad.iter().map(|&ad| unit(ad)).collect()
+}
+
+/// [`best_merge`] with the main directions as unit vectors ([`units`]).
+pub(crate) fn best_merge_along(
+    l1: &Segment,
+    l2: &Segment,
+    directions: &[Vec2],
+    k: f64,
+) -> Option<(usize, Merge)> {
     let mut best: Option<(usize, Merge)> = None;
-    for (i, &ad) in directions_rad.iter().enumerate() {
-        if let Some(m) = cost(l1, l2, ad, k).filter(|m| m.cost.is_finite()) {
+    for (i, &ad) in directions.iter().enumerate() {
+        if let Some(m) = cost_along(l1, l2, ad, k).filter(|m| m.cost.is_finite()) {
             if best.is_none_or(|(_, b)| m.cost < b.cost) {
                 best = Some((i, m));
             }

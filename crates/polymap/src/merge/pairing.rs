@@ -1,6 +1,6 @@
 //! Restrictive pairing (section 2.1): children of map/scan pairs cheaper than `T_p`.
 
-use super::{MergeParams, best_merge, pairs_within};
+use super::{MergeParams, best_merge_along, pairs_within, units};
 use crate::geometry::Segment;
 
 /// A segment created by pairing, `ms(L1, L2, ad)`.
@@ -51,10 +51,11 @@ pub fn restrictive_pairing(
     directions_rad: &[f64],
     params: &MergeParams,
 ) -> Pairing {
+    let directions = units(directions_rad);
     let mut candidates: Vec<Child> = pairs_within(c1, c2, params.max_gap_m)
         .into_iter()
         .filter_map(|(i, j)| {
-            let (dir, m) = best_merge(&c1[i], &c2[j], directions_rad, params.k)?;
+            let (dir, m) = best_merge_along(&c1[i], &c2[j], &directions, params.k)?;
             (m.cost < params.pairing_threshold).then_some(Child {
                 segment: m.segment,
                 cost: m.cost,

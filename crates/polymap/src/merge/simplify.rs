@@ -10,8 +10,8 @@ use std::collections::BinaryHeap;
 
 use rstar::RTree;
 
-use super::candidates::{box_entry, expanded_envelope};
-use super::{MergeParams, best_merge, pairs_within};
+use super::candidates::{BRUTE_FORCE_PAIRS, box_entry, expanded_envelope};
+use super::{MergeParams, best_merge_along, pairs_within, units};
 use crate::geometry::Segment;
 
 /// One segment of the simplified set.
@@ -81,11 +81,12 @@ impl Ord for Candidate {
 /// assert_eq!(s.segments.len(), 2);
 /// ```
 pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams) -> Simplified {
+    let directions = units(directions_rad);
     let mut segs: Vec<Segment> = input.to_vec();
     let mut alive = vec![true; segs.len()];
     let mut heap = BinaryHeap::new();
     let push = |heap: &mut BinaryHeap<Candidate>, segs: &[Segment], i: usize, j: usize| {
-        if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
+        if let Some((_, m)) = best_merge_along(&segs[i], &segs[j], &directions, params.k) {
             if m.cost <= params.simplify_threshold {
                 heap.push(Candidate {
                     cost: m.cost,
@@ -101,12 +102,15 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
             push(&mut heap, &segs, i, j);
         }
     }
-    let mut tree = RTree::bulk_load(
-        segs.iter()
-            .enumerate()
-            .map(|(i, s)| box_entry(s, i))
-            .collect(),
-    );
+    // New partners are found by walking all segments while that is cheap, by an R-tree after.
+    let mut tree = (segs.len() * segs.len() > BRUTE_FORCE_PAIRS).then(|| {
+        RTree::bulk_load(
+            segs.iter()
+                .enumerate()
+                .map(|(i, s)| box_entry(s, i))
+                .collect(),
+        )
+    });
     let mut merges = 0;
     while let Some(c) = heap.pop() {
         if !alive[c.i] || !alive[c.j] {
@@ -114,26 +118,36 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
         }
         alive[c.i] = false;
         alive[c.j] = false;
-        tree.remove(&box_entry(&segs[c.i], c.i));
-        tree.remove(&box_entry(&segs[c.j], c.j));
         let k = segs.len();
         segs.push(c.segment);
         alive.push(true);
         merges += 1;
-        let mut partners: Vec<usize> = tree
-            .locate_in_envelope_intersecting(expanded_envelope(&c.segment, params.max_gap_m))
-            .map(|e| e.data)
-            .filter(|&o| {
-                segs[o]
-                    .distance_to_segment_within(&c.segment, params.max_gap_m)
-                    .is_some()
-            })
-            .collect();
+        let near = |o: &usize| {
+            segs[*o]
+                .distance_to_segment_within(&c.segment, params.max_gap_m)
+                .is_some()
+        };
+        let mut partners: Vec<usize> = match &mut tree {
+            Some(tree) => {
+                tree.remove(&box_entry(&segs[c.i], c.i));
+                tree.remove(&box_entry(&segs[c.j], c.j));
+                let found = tree
+                    .locate_in_envelope_intersecting(expanded_envelope(
+                        &c.segment,
+                        params.max_gap_m,
+                    ))
+                    .map(|e| e.data)
+                    .filter(near)
+                    .collect();
+                tree.insert(box_entry(&c.segment, k));
+                found
+            }
+            None => (0..k).filter(|o| alive[*o]).filter(near).collect(),
+        };
         partners.sort_unstable();
         for o in partners {
             push(&mut heap, &segs, o, k);
         }
-        tree.insert(box_entry(&c.segment, k));
     }
     collect(input.len(), &segs, &alive, merges)
 }
@@ -144,6 +158,7 @@ pub fn simplify_brute(
     directions_rad: &[f64],
     params: &MergeParams,
 ) -> Simplified {
+    let directions = units(directions_rad);
     let mut segs: Vec<Segment> = input.to_vec();
     let mut alive = vec![true; segs.len()];
     let mut merges = 0;
@@ -157,7 +172,7 @@ pub fn simplify_brute(
                 {
                     continue;
                 }
-                if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
+                if let Some((_, m)) = best_merge_along(&segs[i], &segs[j], &directions, params.k) {
                     let c = Candidate {
                         cost: m.cost,
                         i,

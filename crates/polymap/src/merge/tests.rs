@@ -292,8 +292,12 @@ mod prop {
 
         #[test]
         fn candidate_search_agrees_with_brute_force(
-            a in proptest::collection::vec(segment_near_directions(), 0..25),
-            b in proptest::collection::vec(segment_near_directions(), 0..25),
+            // Small inputs take the all-pairs walk, large ones (over 4,096 pairs) the R-tree.
+            a in prop_oneof![
+                proptest::collection::vec(segment_near_directions(), 0..25),
+                proptest::collection::vec(segment_near_directions(), 90..120),
+            ],
+            b in proptest::collection::vec(segment_near_directions(), 0..60),
             gap in 0.0f64..1.5,
         ) {
             prop_assert_eq!(pairs_within(&a, &b, gap), pairs_within_brute(&a, &b, gap));
@@ -301,7 +305,11 @@ mod prop {
 
         #[test]
         fn greedy_simplification_agrees_with_brute_force(
-            segs in proptest::collection::vec(segment_near_directions(), 0..22),
+            // Up to 64 segments new partners are found by a walk, beyond by an R-tree.
+            segs in prop_oneof![
+                proptest::collection::vec(segment_near_directions(), 0..22),
+                proptest::collection::vec(segment_near_directions(), 66..80),
+            ],
             ts in 0.01f64..0.3,
             gap in prop_oneof![Just(f64::INFINITY), 0.1f64..1.0],
         ) {
