@@ -10,7 +10,7 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use polymap::config::Config;
 use polymap::geometry::Vec2;
-use polymap::mapper::{Mapper, MotionPrior, ScanDiagnostics, StageSeconds, Update};
+use polymap::mapper::{Mapper, MotionPrior, PreparedScan, ScanDiagnostics, StageSeconds, Update};
 use polymap::scan::RangeScan;
 use polymap_io::carmen::{CarmenReader, CarmenStats, ReaderOptions};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
@@ -114,8 +114,12 @@ struct Run {
     points: Vec<Vec2>,
     stats: CarmenStats,
     latencies: Vec<Duration>,
+    /// Reading and parsing, on the reading thread.
     read_time: Duration,
+    /// `Mapper::push_prepared`, on the mapping thread.
     map_time: Duration,
+    /// The mapping thread waiting for scans.
+    wait_time: Duration,
     elapsed: Duration,
     last: ScanDiagnostics,
     icp_failures: u64,
@@ -127,7 +131,7 @@ struct Run {
 
 fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let start = Instant::now();
-    let (mut reader, size, bytes_read) = open_log(log, a.skip_bad_lines)?;
+    let (reader, size, bytes_read) = open_log(log, a.skip_bad_lines)?;
     let bar = progress_bar(a.quiet, size);
     let mut run = Run::new(Mapper::new(config.clone()), log);
     let mut diag = match a.diagnostics {
@@ -136,34 +140,103 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         )?),
         false => None,
     };
-    while a.max_scans.is_none_or(|m| (run.poses.len() as u64) < m) {
-        let t0 = Instant::now();
-        let Some(scan) = reader.next_scan()? else {
-            break;
-        };
-        let t1 = Instant::now();
-        let update = run.mapper.push(&scan);
-        run.read_time += t1 - t0;
-        if let Some(w) = diag.as_mut() {
-            w.write(&scan.stamp.text, &update)?;
+    // Reading and extraction run ahead on a second thread; the mapping, which carries state
+    // from scan to scan, stays on this one, in log order: the result is the same as one thread's.
+    run.stats = std::thread::scope(|s| -> Result<CarmenStats> {
+        let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD_BATCHES);
+        let reading = s.spawn(move || read_ahead(reader, config, a.max_scans, tx));
+        let mut waited = Instant::now();
+        for batch in rx {
+            run.wait_time += waited.elapsed();
+            for ready in batch? {
+                let t1 = Instant::now();
+                run.read_time += ready.read;
+                let update = run.mapper.push_prepared(ready.prepared);
+                let map_time = t1.elapsed();
+                if let Some(w) = diag.as_mut() {
+                    w.write(&ready.scan.stamp.text, &update)?;
+                }
+                run.record(ready.scan, update, map_time, a.svg_points);
+                if run.poses.len() % 64 == 0 {
+                    bar.set_position(bytes_read.load(Ordering::Relaxed));
+                    bar.set_message(format!(
+                        "{} scans, {} segments",
+                        run.poses.len(),
+                        run.last.map_segments
+                    ));
+                }
+            }
+            waited = Instant::now();
         }
-        run.record(scan, update, t1.elapsed(), a.svg_points);
-        if run.poses.len() % 64 == 0 {
-            bar.set_position(bytes_read.load(Ordering::Relaxed));
-            bar.set_message(format!(
-                "{} scans, {} segments",
-                run.poses.len(),
-                run.last.map_segments
-            ));
-        }
-    }
+        reading
+            .join()
+            .map_err(|_| anyhow::anyhow!("{}: the reading thread failed", log.display()))
+    })?;
     bar.finish_and_clear();
     if let Some(w) = diag {
         w.finish()?;
     }
-    run.stats = reader.stats().clone();
     run.elapsed = start.elapsed();
     Ok(run)
+}
+
+/// Scans are handed from the reading thread to the mapping thread in batches of this many...
+const READ_AHEAD_SCANS: usize = 32;
+/// ...with at most this many batches in flight, which bounds the memory read ahead.
+const READ_AHEAD_BATCHES: usize = 8;
+
+/// A scan read and prepared ahead of the mapper.
+struct Ready {
+    scan: RangeScan,
+    prepared: PreparedScan,
+    /// Time spent reading and parsing it.
+    read: Duration,
+}
+
+/// Reads up to `max_scans` scans and prepares them for the mapper, sending them in batches; a
+/// read error is sent after the scans before it. Stops early when the receiver has gone.
+fn read_ahead(
+    mut reader: LogReader,
+    config: &Config,
+    max_scans: Option<u64>,
+    tx: std::sync::mpsc::SyncSender<Result<Vec<Ready>>>,
+) -> CarmenStats {
+    let mut batch = Vec::with_capacity(READ_AHEAD_SCANS);
+    let mut count = 0u64;
+    while max_scans.is_none_or(|m| count < m) {
+        let t0 = Instant::now();
+        let scan = match reader.next_scan() {
+            Ok(Some(scan)) => scan,
+            Ok(None) => break,
+            Err(e) => {
+                let _ = tx.send(Ok(std::mem::take(&mut batch)));
+                let _ = tx.send(Err(e.into()));
+                return reader.stats().clone();
+            }
+        };
+        let read = t0.elapsed();
+        let prepared = Mapper::prepare(config, &scan);
+        batch.push(Ready {
+            scan,
+            prepared,
+            read,
+        });
+        count += 1;
+        if batch.len() == READ_AHEAD_SCANS
+            && tx
+                .send(Ok(std::mem::replace(
+                    &mut batch,
+                    Vec::with_capacity(READ_AHEAD_SCANS),
+                )))
+                .is_err()
+        {
+            return reader.stats().clone();
+        }
+    }
+    if !batch.is_empty() {
+        let _ = tx.send(Ok(batch));
+    }
+    reader.stats().clone()
 }
 
 /// A log without a single scan is the wrong file or format, not an empty map; a log whose
@@ -235,6 +308,7 @@ impl Run {
             latencies: Vec::new(),
             read_time: Duration::ZERO,
             map_time: Duration::ZERO,
+            wait_time: Duration::ZERO,
             elapsed: Duration::ZERO,
             last: ScanDiagnostics::default(),
             icp_failures: 0,
@@ -245,9 +319,11 @@ impl Run {
     }
 
     /// Keeps what the outputs need of one mapped scan; `map_time` is how long the push took.
+    /// The scan's latency is its extraction (on the reading thread) plus its push.
     fn record(&mut self, scan: RangeScan, update: Update, map_time: Duration, svg_points: bool) {
         self.map_time += map_time;
-        self.latencies.push(map_time);
+        self.latencies
+            .push(map_time + Duration::from_secs_f64(update.diagnostics.stage_s.extract));
         self.icp_failures += u64::from(update.diagnostics.align.is_some_and(|r| !r.converged));
         self.stages += update.diagnostics.stage_s;
         if svg_points && self.points.len() < MAX_SVG_POINTS {
@@ -334,6 +410,7 @@ fn summary(
         "scans_per_s": if elapsed_s > 0.0 { scans as f64 / elapsed_s } else { 0.0 },
         "read_s": run.read_time.as_secs_f64(),
         "map_s": run.map_time.as_secs_f64(),
+        "wait_s": run.wait_time.as_secs_f64(),
         "latency_ms": { "p50": p50, "p99": p99, "max": max },
         "icp_not_converged": run.icp_failures,
         "stage_s": run.stages,
@@ -371,20 +448,24 @@ fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
     );
     if a.timings {
         let [p50, p99, max] = percentiles_ms(&run.latencies);
-        say!(
-            "timings: read {:.3} s, map {:.3} s, other {:.3} s",
-            run.read_time.as_secs_f64(),
-            run.map_time.as_secs_f64(),
-            (run.elapsed - run.read_time - run.map_time).as_secs_f64()
-        );
         let st = &run.stages;
         say!(
-            "mapping stages: extract {:.3} s, align {:.3} s, directions {:.3} s, merge {:.3} s",
-            st.extract,
+            "reading thread: read {:.3} s, extract {:.3} s",
+            run.read_time.as_secs_f64(),
+            st.extract
+        );
+        say!(
+            "mapping thread: map {:.3} s (align {:.3} s, directions {:.3} s, merge {:.3} s), \
+             waiting for scans {:.3} s, other {:.3} s",
+            run.map_time.as_secs_f64(),
             st.align,
             st.directions,
-            st.merge
+            st.merge,
+            run.wait_time.as_secs_f64(),
+            run.elapsed
+                .saturating_sub(run.map_time + run.wait_time)
+                .as_secs_f64()
         );
-        say!("per-scan mapping latency: p50 {p50:.3} ms, p99 {p99:.3} ms, max {max:.3} ms");
+        say!("per-scan latency (extract + map): p50 {p50:.3} ms, p99 {p99:.3} ms, max {max:.3} ms");
     }
 }

@@ -29,7 +29,7 @@ use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 pub use endpoints::align_endpoints;
 pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
-pub use search::{fit_score, rotation_search, score_sample};
+pub use search::{fit_score, fit_score_above, rotation_search, score_sample};
 pub use solver::Constraint;
 
 /// Which correspondences drive ICP.

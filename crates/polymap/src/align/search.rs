@@ -31,20 +31,20 @@ pub fn rotation_search(
         return guess;
     }
     let sample = score_sample(points_in_robot, params);
-    let score = |theta: f64| {
-        fit_score(
+    let score = |theta: f64, to_beat: f64| {
+        fit_score_above(
             &sample,
             map,
             &Pose2::new(guess.x_m, guess.y_m, theta),
             params,
+            to_beat,
         )
     };
-    let at_guess = score(guess.theta_rad);
+    let at_guess = score(guess.theta_rad, f64::NEG_INFINITY).unwrap_or(0.0);
     let step = params.rotation_search_step_deg.to_radians();
     let mut best = (at_guess, 0);
     for k in (1..=steps).flat_map(|k| [k, -k]) {
-        let s = score(guess.theta_rad + k as f64 * step);
-        if s > best.0 {
+        if let Some(s) = score(guess.theta_rad + k as f64 * step, best.0) {
             best = (s, k);
         }
     }
@@ -65,10 +65,28 @@ pub fn fit_score(
     map_from_robot: &Pose2,
     params: &AlignParams,
 ) -> f64 {
+    fit_score_above(sample, map, map_from_robot, params, f64::NEG_INFINITY).unwrap_or(0.0)
+}
+
+/// [`fit_score`] when it exceeds `to_beat`, `None` otherwise. Every point counts at most 1, so
+/// the sum stops as soon as the points left cannot lift it above `to_beat`; the score, when
+/// returned, is the same sum in the same order as `fit_score`'s.
+pub fn fit_score_above(
+    sample: &[Vec2],
+    map: &impl SegmentLookup,
+    map_from_robot: &Pose2,
+    params: &AlignParams,
+    to_beat: f64,
+) -> Option<f64> {
     let sigma = params.rotation_search_sigma_m;
-    sample
-        .iter()
-        .filter_map(|p| map.nearest_segment(map_from_robot.transform_point(*p), sigma))
-        .map(|(_, pr)| 1.0 - pr.distance_2 / (sigma * sigma))
-        .sum()
+    let mut sum = 0.0;
+    for (i, p) in sample.iter().enumerate() {
+        if sum + (sample.len() - i) as f64 <= to_beat {
+            return None;
+        }
+        if let Some((_, pr)) = map.nearest_segment(map_from_robot.transform_point(*p), sigma) {
+            sum += 1.0 - pr.distance_2 / (sigma * sigma);
+        }
+    }
+    (sum > to_beat).then_some(sum)
 }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::align::{
     AlignMethod, AlignParams, AlignResult, align_endpoints, align_points, fit_score,
-    rotation_search, score_sample, thin_points,
+    fit_score_above, rotation_search, score_sample, thin_points,
 };
 use crate::config::Config;
 use crate::directions::main_directions;
@@ -128,6 +128,20 @@ pub struct Update {
     pub diagnostics: ScanDiagnostics,
 }
 
+/// A scan made ready for mapping by [`Mapper::prepare`]: what the mapper needs of it, computed
+/// without the mapper's state, so that it may be done ahead (on another thread).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreparedScan {
+    /// Valid returns within `extract.max_range_m`, robot frame, metres, in beam order.
+    pub points_in_robot: Vec<Vec2>,
+    /// Extracted segments, robot frame, metres.
+    pub segments_in_robot: Vec<Segment>,
+    /// The robot's odometry pose at scan time, odometry frame, if the log carries one.
+    pub odom_from_robot: Option<Pose2>,
+    /// Wall-clock seconds the preparation took.
+    pub extract_s: f64,
+}
+
 /// The incremental geometric mapper.
 #[derive(Debug, Clone)]
 pub struct Mapper {
@@ -137,7 +151,6 @@ pub struct Mapper {
     last_pose: Option<Pose2>,
     prev_pose: Option<Pose2>,
     last_odom: Option<Pose2>,
-    points: Vec<Vec2>,
 }
 
 impl Mapper {
@@ -151,7 +164,6 @@ impl Mapper {
             last_pose: None,
             prev_pose: None,
             last_odom: None,
-            points: Vec::new(),
         }
     }
 
@@ -181,21 +193,39 @@ impl Mapper {
         self.scans
     }
 
-    /// Integrates one scan; afterwards [`Mapper::map`] is `G_t`.
+    /// Integrates one scan; afterwards [`Mapper::map`] is `G_t`. The same as
+    /// [`Mapper::prepare`] followed by [`Mapper::push_prepared`].
     pub fn push(&mut self, scan: &RangeScan) -> Update {
+        let prepared = Self::prepare(&self.config, scan);
+        self.push_prepared(prepared)
+    }
+
+    /// The stateless first stage of a push: the scan's valid points and its segments (robot
+    /// frame) under `config` (the mapper's own, for the result to be the same as [`Mapper::push`]).
+    pub fn prepare(config: &Config, scan: &RangeScan) -> PreparedScan {
+        let clock = Instant::now();
+        let mut points = Vec::new();
+        scan.points_in_robot(&mut points);
+        let max_range_2 = config.extract.max_range_m.powi(2);
+        points.retain(|p| p.length_squared() <= max_range_2);
+        let segments = extract_segments(&points, scan.angle_increment_rad, &config.extract)
+            .iter()
+            .map(|e| e.segment)
+            .collect();
+        PreparedScan {
+            points_in_robot: points,
+            segments_in_robot: segments,
+            odom_from_robot: scan.odom_from_robot,
+            extract_s: clock.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Integrates one prepared scan; afterwards [`Mapper::map`] is `G_t`.
+    pub fn push_prepared(&mut self, scan: PreparedScan) -> Update {
         let t = self.scans;
         let clock = Instant::now();
-        scan.points_in_robot(&mut self.points);
-        let max_range_2 = self.config.extract.max_range_m.powi(2);
-        self.points.retain(|p| p.length_squared() <= max_range_2);
-        let segs_in_robot: Vec<Segment> =
-            extract_segments(&self.points, scan.angle_increment_rad, &self.config.extract)
-                .iter()
-                .map(|e| e.segment)
-                .collect();
-        let extracted = Instant::now();
-        let (guess, anchor) = self.guess(scan);
-        let align = self.align(&segs_in_robot, guess, anchor);
+        let (guess, anchor) = self.guess(scan.odom_from_robot);
+        let align = self.align(&scan, guess, anchor);
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
         let fallback = if self.map.is_empty() { guess } else { anchor };
@@ -203,8 +233,11 @@ impl Mapper {
         self.prev_pose = self.last_pose.replace(pose);
         self.last_odom = scan.odom_from_robot;
         let aligned = Instant::now();
-        let scan_in_map: Vec<Segment> =
-            segs_in_robot.iter().map(|s| s.transformed(&pose)).collect();
+        let scan_in_map: Vec<Segment> = scan
+            .segments_in_robot
+            .iter()
+            .map(|s| s.transformed(&pose))
+            .collect();
         let recent = self
             .map
             .born_since(t.saturating_sub(self.config.directions.time_memory_scans));
@@ -215,15 +248,15 @@ impl Mapper {
         let merged = Instant::now();
         self.scans += 1;
         let diagnostics = ScanDiagnostics {
-            points: self.points.len(),
-            scan_segments: segs_in_robot.len(),
+            points: scan.points_in_robot.len(),
+            scan_segments: scan.segments_in_robot.len(),
             align,
             main_directions_deg: directions.iter().map(|d| d.to_degrees()).collect(),
             merge,
             map_segments: self.map.len(),
             stage_s: StageSeconds {
-                extract: (extracted - clock).as_secs_f64(),
-                align: (aligned - extracted).as_secs_f64(),
+                extract: scan.extract_s,
+                align: (aligned - clock).as_secs_f64(),
                 directions: (directed - aligned).as_secs_f64(),
                 merge: (merged - directed).as_secs_f64(),
             },
@@ -242,11 +275,11 @@ impl Mapper {
     /// keeps `weak_direction_velocity` of the last motion (0: the previous pose, 1: the full
     /// constant-velocity guess), so a spurious velocity in a featureless corridor fades instead
     /// of running on. The odometry guess is evidence of motion and is its own anchor.
-    fn guess(&self, scan: &RangeScan) -> (Pose2, Pose2) {
+    fn guess(&self, odom_from_robot: Option<Pose2>) -> (Pose2, Pose2) {
         let prior = self.config.mapper.motion_prior;
         let Some(last) = self.last_pose else {
             // The map frame: the first scan's pose, or odometry's frame when odometry is used.
-            let first = match (prior, scan.odom_from_robot) {
+            let first = match (prior, odom_from_robot) {
                 (MotionPrior::Odometry, Some(odom)) => odom,
                 _ => Pose2::IDENTITY,
             };
@@ -264,7 +297,7 @@ impl Mapper {
                 (last.compose(&v), last.compose(&damped))
             }
             MotionPrior::Odometry => {
-                let g = match (self.last_odom, scan.odom_from_robot) {
+                let g = match (self.last_odom, odom_from_robot) {
                     (Some(a), Some(b)) => last.compose(&a.between(&b)),
                     _ => last,
                 };
@@ -274,16 +307,21 @@ impl Mapper {
     }
 
     /// ICP of the scan against the map near the guess; `None` when there is nothing to align to.
-    fn align(&self, segs_in_robot: &[Segment], guess: Pose2, anchor: Pose2) -> Option<AlignResult> {
-        if self.map.is_empty() || self.points.is_empty() {
+    fn align(&self, scan: &PreparedScan, guess: Pose2, anchor: Pose2) -> Option<AlignResult> {
+        if self.map.is_empty() || scan.points_in_robot.is_empty() {
             return None;
         }
         let params = &self.config.align;
-        let points = thin_points(&self.points, params.point_spacing_m);
+        let segs_in_robot = &scan.segments_in_robot;
+        let points = thin_points(&scan.points_in_robot, params.point_spacing_m);
         let near: Vec<Segment> = match params.method {
             AlignMethod::PointToSegment => Vec::new(),
             AlignMethod::Endpoints => {
-                let (lo, hi) = bounds(self.points.iter().map(|p| guess.transform_point(*p)))?;
+                let (lo, hi) = bounds(
+                    scan.points_in_robot
+                        .iter()
+                        .map(|p| guess.transform_point(*p)),
+                )?;
                 let margin = Vec2::splat(params.initial_gate_m);
                 self.map
                     .query(lo - margin, hi + margin)
@@ -335,8 +373,7 @@ fn best_scoring(
     let first = fit_score(&sample, map, &starts[0], params);
     let mut best = (first + margin, starts[0]);
     for p in &starts[1..] {
-        let s = fit_score(&sample, map, p, params);
-        if s > best.0 {
+        if let Some(s) = fit_score_above(&sample, map, p, params, best.0) {
             best = (s, *p);
         }
     }
