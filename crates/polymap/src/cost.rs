@@ -118,9 +118,31 @@ pub(crate) fn unit(ad_rad: f64) -> Vec2 {
 /// [`cost`] along a main direction given as its unit vector ([`unit`]), so callers costing many
 /// pairs compute it once.
 pub(crate) fn cost_along(l1: &Segment, l2: &Segment, direction: Vec2, k: f64) -> Option<Merge> {
+    cost_at_most(l1, l2, direction, k, f64::INFINITY)
+}
+
+/// [`cost_along`] when the cost can be at most `max_cost`; `None` as soon as a lower bound
+/// shows it cannot. Merges at most `max_cost` come out exactly as [`cost_along`] makes them.
+///
+/// The bound, for `k ≥ 0`: `lr ≥ 1/2` (the merged segment is at least as long as the larger
+/// projected length), each term is at least `d/(1 + k)` (its first fraction's denominator is
+/// at most `1 + k`), and the last factor at least `1/(1 + k)`, so `C ≥ (d1 + d2) / (2(1 + k)²)`.
+pub(crate) fn cost_at_most(
+    l1: &Segment,
+    l2: &Segment,
+    direction: Vec2,
+    k: f64,
+    max_cost: f64,
+) -> Option<Merge> {
     let (v1, v2) = (l1.vector(), l2.vector());
     let (len1, len2) = (v1.length(), v2.length());
     let ld = DirectedLine::between_lengths(l1, len1, l2, len2, direction)?;
+    let d1 = ld.distance_m(l1.start) + ld.distance_m(l1.end);
+    let d2 = ld.distance_m(l2.start) + ld.distance_m(l2.end);
+    // The margin keeps rounding of the bound from rejecting a merge right at `max_cost`.
+    if k >= 0.0 && 0.5 * (d1 + d2) / ((1.0 + k) * (1.0 + k)) > max_cost * (1.0 + 1e-9) + 1e-12 {
+        return None;
+    }
     let ms = hull_on_line(&ld, l1, l2);
     // Cosines of the undirected angles in [0°, 90°]: |u·w| of unit vectors; a zero-length
     // segment makes no angle (cosine 1), as its direction would be 0 anyway.
@@ -139,8 +161,6 @@ pub(crate) fn cost_along(l1: &Segment, l2: &Segment, direction: Vec2, k: f64) ->
         return None;
     }
     let lr = ms.length() / projected_m;
-    let d1 = ld.distance_m(l1.start) + ld.distance_m(l1.end);
-    let d2 = ld.distance_m(l2.start) + ld.distance_m(l2.end);
     let term =
         |len: f64, d: f64, cos_a: f64| (len + 1.0) * d / (1.0 + k * cos_a) - len * d / (1.0 + k);
     let c = lr * (term(len1, d1, cos_a1) + term(len2, d2, cos_a2)) / (1.0 + k * cos_a12);
@@ -248,5 +268,26 @@ mod tests {
     fn undefined_costs_are_none() {
         assert!(cost(&seg(0.0, 0.0, 0.0, 0.0), &seg(1.0, 1.0, 1.0, 1.0), 0.0, 1.0).is_none());
         assert!(cost(&seg(0.0, 0.0, 0.0, 1.0), &seg(1.0, 0.0, 1.0, 1.0), 0.0, 1.0).is_none());
+    }
+
+    proptest::proptest! {
+        /// The bound behind `cost_at_most` is a true lower bound: pruning never drops a merge
+        /// at most the limit, and what it keeps is bit for bit `cost_along`'s.
+        #[test]
+        fn pruned_cost_agrees_with_the_full_cost(
+            a in proptest::array::uniform4(-3.0f64..3.0),
+            // l2 near l1, so that many costs fall around the limit.
+            b in proptest::array::uniform4(-0.4f64..0.4),
+            ad in 0.0f64..std::f64::consts::PI,
+            k in 0.0f64..5.0,
+            max_cost in 0.0f64..0.5,
+        ) {
+            let l1 = seg(a[0], a[1], a[2], a[3]);
+            let l2 = seg(a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]);
+            let full = cost_along(&l1, &l2, unit(ad), k).filter(|m| m.cost <= max_cost);
+            let pruned = cost_at_most(&l1, &l2, unit(ad), k, max_cost)
+                .filter(|m| m.cost <= max_cost);
+            proptest::prop_assert_eq!(full, pruned);
+        }
     }
 }

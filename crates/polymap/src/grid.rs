@@ -160,11 +160,18 @@ impl<K: Copy + Ord> SegmentGrid<K> {
 
     /// The nearest segment within `max_distance_m` of `p`, with the projection of `p` onto it;
     /// ties go to the smaller key.
-    pub fn nearest<'a>(
-        &'a self,
-        p: Vec2,
-        max_distance_m: f64,
-    ) -> Option<(K, Segment, SegmentProjection)> {
+    pub fn nearest(&self, p: Vec2, max_distance_m: f64) -> Option<(K, Segment, SegmentProjection)> {
+        self.nearest_entry(p, max_distance_m)
+            .map(|e| (e.key, e.segment, e.segment.project(p)))
+    }
+
+    /// [`SegmentGrid::nearest`] without the projection: the key and the segment.
+    pub fn nearest_segment(&self, p: Vec2, max_distance_m: f64) -> Option<(K, Segment)> {
+        self.nearest_entry(p, max_distance_m)
+            .map(|e| (e.key, e.segment))
+    }
+
+    fn nearest_entry<'a>(&'a self, p: Vec2, max_distance_m: f64) -> Option<&'a Entry<K>> {
         let max_2 = max_distance_m * max_distance_m;
         let mut best: Option<(f64, &'a Entry<K>)> = None;
         let consider = |list: &'a Vec<Entry<K>>| {
@@ -193,7 +200,7 @@ impl<K: Copy + Ord> SegmentGrid<K> {
             let r = Vec2::splat(max_distance_m - self.reach_m);
             self.for_cells(p - r, p + r, consider);
         }
-        best.map(|(_, e)| (e.key, e.segment, e.segment.project(p)))
+        best.map(|(_, e)| e)
     }
 
     /// Keys of the segments that come within `margin_m` of segment `s`, sorted, no repeats.

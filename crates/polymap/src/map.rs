@@ -181,6 +181,10 @@ impl SegmentLookup for GlobalMap {
             .nearest(p, max_distance_m)
             .map(|(_, s, pr)| (s, pr))
     }
+
+    fn nearest_segment_only(&self, p: Vec2, max_distance_m: f64) -> Option<Segment> {
+        self.grid.nearest_segment(p, max_distance_m).map(|(_, s)| s)
+    }
 }
 
 #[cfg(test)]

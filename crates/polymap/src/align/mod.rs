@@ -140,6 +140,12 @@ pub trait SegmentLookup {
     /// The segment nearest to `p` within `max_distance_m`, with the projection of `p` onto it.
     fn nearest_segment(&self, p: Vec2, max_distance_m: f64)
     -> Option<(Segment, SegmentProjection)>;
+
+    /// [`SegmentLookup::nearest_segment`] without the projection (which an implementation may
+    /// then skip computing).
+    fn nearest_segment_only(&self, p: Vec2, max_distance_m: f64) -> Option<Segment> {
+        self.nearest_segment(p, max_distance_m).map(|(s, _)| s)
+    }
 }
 
 #[cfg(test)]

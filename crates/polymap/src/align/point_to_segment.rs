@@ -38,7 +38,7 @@ pub fn align_points(
     run_icp(guess, anchor, params, |pose, gate_m, out| {
         for &p in points_in_robot {
             let q = pose.transform_point(p);
-            let Some((s, _)) = map.nearest_segment(q, gate_m) else {
+            let Some(s) = map.nearest_segment_only(q, gate_m) else {
                 continue;
             };
             let len = s.length();

@@ -3,7 +3,7 @@
 use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{AABB, RTree};
 
-use crate::geometry::Segment;
+use crate::geometry::{Segment, Vec2};
 
 /// An R-tree entry: a segment's bounding box with its index.
 pub(crate) type BoxEntry = GeomWithData<Rectangle<[f64; 2]>, usize>;
@@ -63,4 +63,33 @@ pub fn pairs_within_brute(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usiz
         }
     }
     out
+}
+
+/// The pairs `(i, j)`, `i < j`, of `segs` no further than `gap_m` apart, sorted: what
+/// [`pairs_within`]`(segs, segs, gap_m)` holds with `i < j`, at half the tests.
+pub fn pairs_within_self(segs: &[Segment], gap_m: f64) -> Vec<(usize, usize)> {
+    if gap_m.is_finite() && segs.len().saturating_mul(segs.len()) > BRUTE_FORCE_PAIRS {
+        let mut pairs = pairs_within(segs, segs, gap_m);
+        pairs.retain(|(i, j)| i < j);
+        return pairs;
+    }
+    let boxes: Vec<(Vec2, Vec2)> = segs.iter().map(Segment::bounds).collect();
+    let mut out = Vec::new();
+    for (i, s) in segs.iter().enumerate() {
+        for (j, t) in segs.iter().enumerate().skip(i + 1) {
+            if boxes_within(boxes[i], boxes[j], gap_m)
+                && s.distance_to_segment_within(t, gap_m).is_some()
+            {
+                out.push((i, j));
+            }
+        }
+    }
+    out
+}
+
+/// False when two bounding boxes are further than `gap_m` apart, so that the segments inside
+/// are too; a cheap first test before [`Segment::distance_to_segment_within`].
+pub(crate) fn boxes_within(a: (Vec2, Vec2), b: (Vec2, Vec2), gap_m: f64) -> bool {
+    let gap = (b.0 - a.1).max(a.0 - b.1).max(Vec2::ZERO);
+    gap.length_squared() <= gap_m * gap_m
 }

@@ -13,9 +13,9 @@ mod simplify;
 
 use serde::{Deserialize, Serialize};
 
-use crate::cost::{Merge, cost_along, unit};
+use crate::cost::{Merge, cost_at_most, unit};
 use crate::geometry::{Segment, Vec2};
-pub use candidates::{pairs_within, pairs_within_brute};
+pub use candidates::{pairs_within, pairs_within_brute, pairs_within_self};
 pub use insertion::{Piece, insert_vertices};
 pub use pairing::{Child, Pairing, restrictive_pairing};
 pub use simplify::{Simplified, SimplifiedSegment, simplify, simplify_brute};
@@ -72,24 +72,28 @@ pub fn best_merge(
     directions_rad: &[f64],
     k: f64,
 ) -> Option<(usize, Merge)> {
-    best_merge_along(l1, l2, &units(directions_rad), k)
+    best_merge_at_most(l1, l2, &units(directions_rad), k, f64::INFINITY)
 }
 
-/// The unit vectors of main directions, for [`best_merge_along`].
+/// The unit vectors of main directions, for [`best_merge_at_most`].
 pub(crate) fn units(directions_rad: &[f64]) -> Vec<Vec2> {
     directions_rad.iter().map(|&ad| unit(ad)).collect()
 }
 
-/// [`best_merge`] with the main directions as unit vectors ([`units`]).
-pub(crate) fn best_merge_along(
+/// [`best_merge`] with the main directions as unit vectors ([`units`]), when its cost is at
+/// most `max_cost` (directions that cannot reach it are not costed in full); `None` otherwise.
+pub(crate) fn best_merge_at_most(
     l1: &Segment,
     l2: &Segment,
     directions: &[Vec2],
     k: f64,
+    max_cost: f64,
 ) -> Option<(usize, Merge)> {
     let mut best: Option<(usize, Merge)> = None;
     for (i, &ad) in directions.iter().enumerate() {
-        if let Some(m) = cost_along(l1, l2, ad, k).filter(|m| m.cost.is_finite()) {
+        if let Some(m) = cost_at_most(l1, l2, ad, k, max_cost)
+            .filter(|m| m.cost.is_finite() && m.cost <= max_cost)
+        {
             if best.is_none_or(|(_, b)| m.cost < b.cost) {
                 best = Some((i, m));
             }

@@ -1,6 +1,6 @@
 //! Restrictive pairing (section 2.1): children of map/scan pairs cheaper than `T_p`.
 
-use super::{MergeParams, best_merge_along, pairs_within, units};
+use super::{MergeParams, best_merge_at_most, pairs_within, units};
 use crate::geometry::Segment;
 
 /// A segment created by pairing, `ms(L1, L2, ad)`.
@@ -55,7 +55,13 @@ pub fn restrictive_pairing(
     let mut candidates: Vec<Child> = pairs_within(c1, c2, params.max_gap_m)
         .into_iter()
         .filter_map(|(i, j)| {
-            let (dir, m) = best_merge_along(&c1[i], &c2[j], &directions, params.k)?;
+            let (dir, m) = best_merge_at_most(
+                &c1[i],
+                &c2[j],
+                &directions,
+                params.k,
+                params.pairing_threshold,
+            )?;
             (m.cost < params.pairing_threshold).then_some(Child {
                 segment: m.segment,
                 cost: m.cost,

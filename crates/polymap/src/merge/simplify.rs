@@ -10,9 +10,11 @@ use std::collections::BinaryHeap;
 
 use rstar::RTree;
 
-use super::candidates::{BRUTE_FORCE_PAIRS, box_entry, expanded_envelope};
-use super::{MergeParams, best_merge_along, pairs_within, units};
-use crate::geometry::Segment;
+use super::candidates::{
+    BRUTE_FORCE_PAIRS, box_entry, boxes_within, expanded_envelope, pairs_within_self,
+};
+use super::{MergeParams, best_merge_at_most, units};
+use crate::geometry::{Segment, Vec2};
 
 /// One segment of the simplified set.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,7 +88,13 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
     let mut alive = vec![true; segs.len()];
     let mut heap = BinaryHeap::new();
     let push = |heap: &mut BinaryHeap<Candidate>, segs: &[Segment], i: usize, j: usize| {
-        if let Some((_, m)) = best_merge_along(&segs[i], &segs[j], &directions, params.k) {
+        if let Some((_, m)) = best_merge_at_most(
+            &segs[i],
+            &segs[j],
+            &directions,
+            params.k,
+            params.simplify_threshold,
+        ) {
             if m.cost <= params.simplify_threshold {
                 heap.push(Candidate {
                     cost: m.cost,
@@ -97,11 +105,10 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
             }
         }
     };
-    for (i, j) in pairs_within(&segs, &segs, params.max_gap_m) {
-        if i < j {
-            push(&mut heap, &segs, i, j);
-        }
+    for (i, j) in pairs_within_self(&segs, params.max_gap_m) {
+        push(&mut heap, &segs, i, j);
     }
+    let mut boxes: Vec<(Vec2, Vec2)> = segs.iter().map(Segment::bounds).collect();
     // New partners are found by walking all segments while that is cheap, by an R-tree after.
     let mut tree = (segs.len() * segs.len() > BRUTE_FORCE_PAIRS).then(|| {
         RTree::bulk_load(
@@ -120,12 +127,14 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
         alive[c.j] = false;
         let k = segs.len();
         segs.push(c.segment);
+        boxes.push(c.segment.bounds());
         alive.push(true);
         merges += 1;
         let near = |o: &usize| {
-            segs[*o]
-                .distance_to_segment_within(&c.segment, params.max_gap_m)
-                .is_some()
+            boxes_within(boxes[*o], boxes[k], params.max_gap_m)
+                && segs[*o]
+                    .distance_to_segment_within(&c.segment, params.max_gap_m)
+                    .is_some()
         };
         let mut partners: Vec<usize> = match &mut tree {
             Some(tree) => {
@@ -172,7 +181,13 @@ pub fn simplify_brute(
                 {
                     continue;
                 }
-                if let Some((_, m)) = best_merge_along(&segs[i], &segs[j], &directions, params.k) {
+                if let Some((_, m)) = best_merge_at_most(
+                    &segs[i],
+                    &segs[j],
+                    &directions,
+                    params.k,
+                    params.simplify_threshold,
+                ) {
                     let c = Candidate {
                         cost: m.cost,
                         i,

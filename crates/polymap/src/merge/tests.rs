@@ -301,6 +301,9 @@ mod prop {
             gap in 0.0f64..1.5,
         ) {
             prop_assert_eq!(pairs_within(&a, &b, gap), pairs_within_brute(&a, &b, gap));
+            let mut within_a = pairs_within_brute(&a, &a, gap);
+            within_a.retain(|(i, j)| i < j);
+            prop_assert_eq!(pairs_within_self(&a, gap), within_a);
         }
 
         #[test]
