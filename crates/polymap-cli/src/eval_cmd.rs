@@ -42,7 +42,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                 if *json {
                     m.to_json() + "\n"
                 } else {
-                    m.to_table()
+                    m.to_table() + "\n"
                 }
             );
         }

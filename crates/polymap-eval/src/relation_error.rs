@@ -41,6 +41,8 @@ pub struct RelationError {
     pub translation_error_m: f64,
     /// `|wrap(yaw_est − yaw_true)|`, radians, in `[0, π]`.
     pub rotation_error_rad: f64,
+    /// `|t2 − t1|` of the relation, seconds.
+    pub time_apart_s: f64,
 }
 
 /// Per-relation errors, and which relations found no pose at `t1` or `t2`.
@@ -74,6 +76,77 @@ pub struct RelationMetrics {
     pub translation_2_m2: Option<ErrorStats>,
     /// Squared rotational error, deg².
     pub rotation_2_deg2: Option<ErrorStats>,
+    /// The same errors split by how far apart in time the two poses of a relation are (an
+    /// addition to the papers' figures): see [`TIME_APART_CLASSES_S`].
+    pub by_time_apart: Vec<TimeApartClass>,
+}
+
+/// Upper bounds of the classes of [`RelationMetrics::by_time_apart`], seconds. Poses at most
+/// 10 s apart measure local tracking; poses more than 100 s apart mostly measure whether the
+/// map stayed consistent when the robot came back (loops), which drift accumulated on the way
+/// decides.
+pub const TIME_APART_CLASSES_S: [f64; 3] = [10.0, 100.0, f64::INFINITY];
+
+/// The errors of the relations whose poses are between `from_s` (exclusive; 0 inclusive) and
+/// `to_s` (inclusive) apart.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TimeApartClass {
+    /// Lower bound, seconds.
+    pub from_s: f64,
+    /// Upper bound, seconds; `None` for no bound.
+    pub to_s: Option<f64>,
+    /// Translational error, metres.
+    pub translation_m: Option<ErrorStats>,
+    /// Rotational error, degrees.
+    pub rotation_deg: Option<ErrorStats>,
+    /// The class's share of the overall mean translational error (its errors' sum over all
+    /// errors' sum), in [0, 1].
+    pub share_of_translation: f64,
+}
+
+impl TimeApartClass {
+    fn classes(errors: &[RelationError]) -> Vec<TimeApartClass> {
+        let total: f64 = errors.iter().map(|e| e.translation_error_m).sum();
+        let mut from_s = 0.0;
+        TIME_APART_CLASSES_S
+            .iter()
+            .map(|&to_s| {
+                let in_class: Vec<&RelationError> = errors
+                    .iter()
+                    .filter(|e| {
+                        (e.time_apart_s > from_s || from_s == 0.0) && e.time_apart_s <= to_s
+                    })
+                    .collect();
+                let trans: Vec<f64> = in_class.iter().map(|e| e.translation_error_m).collect();
+                let rot: Vec<f64> = in_class
+                    .iter()
+                    .map(|e| e.rotation_error_rad.to_degrees())
+                    .collect();
+                let class = TimeApartClass {
+                    from_s,
+                    to_s: to_s.is_finite().then_some(to_s),
+                    translation_m: ErrorStats::from_values(&trans),
+                    rotation_deg: ErrorStats::from_values(&rot),
+                    share_of_translation: if total > 0.0 {
+                        trans.iter().sum::<f64>() / total
+                    } else {
+                        0.0
+                    },
+                };
+                from_s = to_s;
+                class
+            })
+            .collect()
+    }
+
+    /// "≤ 10 s", "10–100 s", "> 100 s".
+    pub fn label(&self) -> String {
+        match (self.from_s, self.to_s) {
+            (0.0, Some(t)) => format!("≤ {t:.0} s"),
+            (f, Some(t)) => format!("{f:.0}–{t:.0} s"),
+            (f, None) => format!("> {f:.0} s"),
+        }
+    }
 }
 
 /// The error of one estimated relative pose against the true one.
@@ -132,6 +205,7 @@ pub fn relation_errors(
             estimated_robot1_from_robot2: estimated,
             translation_error_m: d.translation_m,
             rotation_error_rad: d.rotation_rad,
+            time_apart_s: (rel.t2_s - rel.t1_s).abs(),
         });
     }
     RelationErrors {
@@ -183,6 +257,7 @@ impl RelationMetrics {
             rotation_deg: ErrorStats::from_values(&rot_deg),
             translation_2_m2: ErrorStats::of_squares(&trans_m),
             rotation_2_deg2: ErrorStats::of_squares(&rot_deg),
+            by_time_apart: TimeApartClass::classes(&errors.errors),
         }
     }
 
@@ -230,10 +305,39 @@ impl fmt::Display for RelationMetrics {
         for (name, stats) in rows {
             write_stats_row(f, name, stats)?;
         }
-        write!(
+        writeln!(
             f,
             "relations: matched {} of {} ({} unmatched); std = population",
             self.matched, self.relations, self.unmatched
+        )?;
+        writeln!(f)?;
+        writeln!(
+            f,
+            "| {:<14} | {:>9} | {:>18} | {:>16} | {:>14} |",
+            "poses apart", "relations", "translation (m)", "rotation (deg)", "share of error"
+        )?;
+        writeln!(
+            f,
+            "| {:-<14} | {:->9} | {:->18} | {:->16} | {:->14} |",
+            "", "", "", "", ""
+        )?;
+        for c in &self.by_time_apart {
+            let mean =
+                |s: &Option<ErrorStats>| s.map_or("-".to_string(), |s| format!("{:.4}", s.mean));
+            writeln!(
+                f,
+                "| {:<14} | {:>9} | {:>18} | {:>16} | {:>13.0}% |",
+                c.label(),
+                c.translation_m.map_or(0, |s| s.count),
+                mean(&c.translation_m),
+                mean(&c.rotation_deg),
+                100.0 * c.share_of_translation
+            )?;
+        }
+        write!(
+            f,
+            "(means; relations between poses far apart in time measure whether the map stayed \
+             consistent when the robot came back)"
         )
     }
 }

@@ -163,3 +163,36 @@ fn table_and_json_carry_the_numbers() {
     assert_eq!(json["matched"], 1);
     assert_eq!(json["translation_m"]["mean"], 0.25);
 }
+
+#[test]
+fn errors_are_split_by_how_far_apart_the_poses_are() {
+    // The estimate stands still; the truth says the robot moved 0.1 m after 5 s, 0.3 m after
+    // 50 s (and again from 10 s to 60 s: exactly 50 s apart) and 1 m after 500 s.
+    let trajectory: Vec<(f64, Pose2)> = [0.0, 5.0, 10.0, 50.0, 60.0, 500.0]
+        .iter()
+        .map(|&t| (t, Pose2::IDENTITY))
+        .collect();
+    let rels = [
+        rel(0.0, 5.0, 0.1, 0.0, 0.0),
+        rel(0.0, 10.0, 0.2, 0.0, 0.0),
+        rel(0.0, 50.0, 0.3, 0.0, 0.0),
+        rel(10.0, 60.0, 0.3, 0.0, 0.0),
+        rel(0.0, 500.0, 1.0, 0.0, 0.0),
+    ];
+    let m = evaluate_relations(&rels, &trajectory, &RelationParams::default());
+    let classes = &m.by_time_apart;
+    assert_eq!(classes.len(), 3);
+    let counts: Vec<usize> = classes
+        .iter()
+        .map(|c| c.translation_m.map_or(0, |s| s.count))
+        .collect();
+    assert_eq!(counts, vec![2, 2, 1], "10 s belongs to the first class");
+    assert!(close(classes[0].translation_m.unwrap().mean, 0.15));
+    assert!(close(classes[1].translation_m.unwrap().mean, 0.3));
+    assert!(close(classes[2].share_of_translation, 1.0 / 1.9));
+    let shares: f64 = classes.iter().map(|c| c.share_of_translation).sum();
+    assert!(close(shares, 1.0));
+    let labels: Vec<String> = classes.iter().map(TimeApartClass::label).collect();
+    assert_eq!(labels, vec!["≤ 10 s", "10–100 s", "> 100 s"]);
+    assert!(m.to_table().contains("| > 100 s"));
+}
