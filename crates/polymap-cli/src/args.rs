@@ -113,9 +113,10 @@ pub struct MapArgs {
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "out")]
     pub output: PathBuf,
-    /// A TOML configuration file (see --print-config); it overrides the preset.
+    /// A TOML configuration file (see --print-config); it overrides the preset. May be given
+    /// more than once: each file overrides the ones before it.
     #[arg(long)]
-    pub config: Option<PathBuf>,
+    pub config: Vec<PathBuf>,
     /// A named preset: `default` or `paper`.
     #[arg(long, default_value = "default")]
     pub preset: String,

@@ -1,19 +1,19 @@
-//! The effective configuration: a preset, then a TOML file, then flags.
+//! The effective configuration: a preset, then TOML files in order, then flags.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow};
 use polymap::config::{Config, PRESETS};
 use polymap::mapper::MotionPrior;
 
-/// Builds the configuration from a preset name, an optional TOML file and the odometry flag.
-pub fn effective_config(preset: &str, file: Option<&Path>, odometry: bool) -> Result<Config> {
-    let preset_config = Config::preset(preset)
+/// Builds the configuration from a preset name, TOML files laid over it in order, and the
+/// odometry flag.
+pub fn effective_config(preset: &str, files: &[PathBuf], odometry: bool) -> Result<Config> {
+    let mut config = Config::preset(preset)
         .ok_or_else(|| anyhow!("unknown preset {preset:?}; known: {}", PRESETS.join(", ")))?;
-    let mut config = match file {
-        Some(path) => layered(preset_config, path)?,
-        None => preset_config,
-    };
+    for path in files {
+        config = layered(config, path)?;
+    }
     config
         .validate()
         .map_err(|e| anyhow!("invalid configuration: {e}"))?;
@@ -27,7 +27,7 @@ pub fn effective_config(preset: &str, file: Option<&Path>, odometry: bool) -> Re
     Ok(config)
 }
 
-/// The preset with a TOML file laid over it: keys the file sets win, the rest stay the preset's.
+/// A configuration with a TOML file laid over it: keys the file sets win, the rest stay.
 fn layered(preset: Config, path: &Path) -> Result<Config> {
     let text = std::fs::read_to_string(path)
         .with_context(|| format!("{}: cannot read", path.display()))?;

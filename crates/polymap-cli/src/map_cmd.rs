@@ -28,7 +28,7 @@ use polymap_export::report::{ReportBudget, ReportRecorder, SnapshotContent};
 const MAX_SVG_POINTS: usize = 200_000;
 
 pub fn run(a: &MapArgs) -> Result<()> {
-    let config = effective_config(&a.preset, a.config.as_deref(), a.odometry)?;
+    let config = effective_config(&a.preset, &a.config, a.odometry)?;
     if a.print_config {
         say_raw!("{}", to_toml(&config)?);
         return Ok(());

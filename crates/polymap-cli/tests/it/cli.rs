@@ -340,6 +340,22 @@ fn a_config_file_is_laid_over_the_preset_and_bad_values_are_refused() {
         printed.contains("k = 2.0") && printed.contains("method = \"endpoints\""),
         "{printed}"
     );
+    // Repeated files are laid over each other in order.
+    let later = dir.path().join("later.toml");
+    fs::write(&later, "[merge]\nk = 3.0\n[align]\nmax_iterations = 7\n").unwrap();
+    let o = polymap(&[
+        "map",
+        "--config",
+        partial.to_str().unwrap(),
+        "--config",
+        later.to_str().unwrap(),
+        "--print-config",
+    ]);
+    let printed = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        printed.contains("k = 3.0") && printed.contains("max_iterations = 7"),
+        "{printed}"
+    );
     fs::write(&partial, "[directions]\nbins = 0\n").unwrap();
     let o = polymap(&[
         "map",
