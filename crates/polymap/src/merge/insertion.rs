@@ -5,8 +5,8 @@ use rstar::AABB;
 use rstar::RTree;
 
 use super::MergeParams;
-use super::candidates::box_entry;
-use crate::geometry::{Segment, Vec2};
+use super::candidates::{BRUTE_FORCE_PAIRS, box_entry, boxes_within};
+use crate::geometry::{Segment, SegmentProjection, Vec2};
 
 /// A segment after vertex insertion, with the index of the input segment it is part of.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,28 +50,53 @@ pub fn insert_vertices(
 
 /// For each segment of `targets`, the parameters `t` where endpoints of `sources` project.
 fn cuts_from(sources: &[Segment], targets: &[Segment], params: &MergeParams) -> Vec<Vec<f64>> {
+    cuts_with_walk_limit(sources, targets, params, BRUTE_FORCE_PAIRS)
+}
+
+/// [`cuts_from`], walking all targets for up to `walk_limit` endpoint–target pairs.
+fn cuts_with_walk_limit(
+    sources: &[Segment],
+    targets: &[Segment],
+    params: &MergeParams,
+    walk_limit: usize,
+) -> Vec<Vec<f64>> {
     let mut cuts = vec![Vec::new(); targets.len()];
     if targets.is_empty() {
         return cuts;
     }
     let r = params.insert_max_distance_m;
-    let tree = RTree::bulk_load(
-        targets
-            .iter()
-            .enumerate()
-            .map(|(j, s)| box_entry(s, j))
-            .collect(),
-    );
+    let closest = |a: &(usize, SegmentProjection), b: &(usize, SegmentProjection)| {
+        a.1.distance_2
+            .total_cmp(&b.1.distance_2)
+            .then(a.0.cmp(&b.0))
+    };
+    // Any candidate set holding every target within `r` gives the same nearest one: all
+    // targets while that is cheap, those whose box meets the endpoint's in an R-tree after.
+    let tree = (2 * sources.len() * targets.len() > walk_limit).then(|| {
+        RTree::bulk_load(
+            targets
+                .iter()
+                .enumerate()
+                .map(|(j, s)| box_entry(s, j))
+                .collect(),
+        )
+    });
+    let boxes: Vec<(Vec2, Vec2)> = targets.iter().map(Segment::bounds).collect();
     for e in sources.iter().flat_map(|s| [s.start, s.end]) {
-        let env = AABB::from_corners([e.x - r, e.y - r], [e.x + r, e.y + r]);
-        let nearest = tree
-            .locate_in_envelope_intersecting(env)
-            .map(|c| (c.data, targets[c.data].project(e)))
-            .min_by(|a, b| {
-                a.1.distance_2
-                    .total_cmp(&b.1.distance_2)
-                    .then(a.0.cmp(&b.0))
-            });
+        let nearest = match &tree {
+            Some(tree) => {
+                let env = AABB::from_corners([e.x - r, e.y - r], [e.x + r, e.y + r]);
+                tree.locate_in_envelope_intersecting(env)
+                    .map(|c| (c.data, targets[c.data].project(e)))
+                    .min_by(closest)
+            }
+            None => boxes
+                .iter()
+                .enumerate()
+                .filter(|(_, b)| boxes_within((e, e), **b, r))
+                .map(|(j, _)| (j, targets[j].project(e)))
+                .min_by(closest),
+        };
         if let Some((j, proj)) = nearest.filter(|(_, p)| p.distance_2 <= r * r) {
             cuts[j].push(proj.t);
         }
@@ -112,5 +137,33 @@ fn lerp(s: &Segment, t: f64) -> Vec2 {
         s.start
     } else {
         s.start + s.vector() * t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn segment() -> impl Strategy<Value = Segment> {
+        (0.0f64..8.0, 0.0f64..8.0, -2.0f64..2.0, -2.0f64..2.0)
+            .prop_map(|(x, y, dx, dy)| Segment::new(Vec2::new(x, y), Vec2::new(x + dx, y + dy)))
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        /// The walk over all targets and the R-tree find the same cuts.
+        #[test]
+        fn walk_and_tree_find_the_same_cuts(
+            sources in proptest::collection::vec(segment(), 0..30),
+            targets in proptest::collection::vec(segment(), 0..30),
+        ) {
+            let p = MergeParams::default();
+            prop_assert_eq!(
+                cuts_with_walk_limit(&sources, &targets, &p, 0),
+                cuts_with_walk_limit(&sources, &targets, &p, usize::MAX)
+            );
+        }
     }
 }

@@ -11,7 +11,7 @@ use std::collections::BinaryHeap;
 use rstar::RTree;
 
 use super::candidates::{
-    BRUTE_FORCE_PAIRS, box_entry, boxes_within, expanded_envelope, pairs_within_self,
+    BRUTE_FORCE_PAIRS, box_entry, boxes_within, expanded_envelope, pairs_within_self_walk_limit,
 };
 use super::{MergeParams, best_merge_at_most, units};
 use crate::geometry::{Segment, Vec2};
@@ -83,6 +83,16 @@ impl Ord for Candidate {
 /// assert_eq!(s.segments.len(), 2);
 /// ```
 pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams) -> Simplified {
+    simplify_with_walk_limit(input, directions_rad, params, BRUTE_FORCE_PAIRS)
+}
+
+/// [`simplify`], finding partners by walking all segments for up to `walk_limit` pairs.
+pub(crate) fn simplify_with_walk_limit(
+    input: &[Segment],
+    directions_rad: &[f64],
+    params: &MergeParams,
+    walk_limit: usize,
+) -> Simplified {
     let directions = units(directions_rad);
     let mut segs: Vec<Segment> = input.to_vec();
     let mut alive = vec![true; segs.len()];
@@ -105,12 +115,12 @@ pub fn simplify(input: &[Segment], directions_rad: &[f64], params: &MergeParams)
             }
         }
     };
-    for (i, j) in pairs_within_self(&segs, params.max_gap_m) {
+    for (i, j) in pairs_within_self_walk_limit(&segs, params.max_gap_m, walk_limit) {
         push(&mut heap, &segs, i, j);
     }
     let mut boxes: Vec<(Vec2, Vec2)> = segs.iter().map(Segment::bounds).collect();
     // New partners are found by walking all segments while that is cheap, by an R-tree after.
-    let mut tree = (segs.len() * segs.len() > BRUTE_FORCE_PAIRS).then(|| {
+    let mut tree = (segs.len() * segs.len() > walk_limit).then(|| {
         RTree::bulk_load(
             segs.iter()
                 .enumerate()

@@ -292,33 +292,34 @@ mod prop {
 
         #[test]
         fn candidate_search_agrees_with_brute_force(
-            // Small inputs take the all-pairs walk, large ones (over 4,096 pairs) the R-tree.
-            a in prop_oneof![
-                proptest::collection::vec(segment_near_directions(), 0..25),
-                proptest::collection::vec(segment_near_directions(), 90..120),
-            ],
-            b in proptest::collection::vec(segment_near_directions(), 0..60),
+            a in proptest::collection::vec(segment_near_directions(), 0..40),
+            b in proptest::collection::vec(segment_near_directions(), 0..40),
             gap in 0.0f64..1.5,
         ) {
-            prop_assert_eq!(pairs_within(&a, &b, gap), pairs_within_brute(&a, &b, gap));
+            use crate::merge::candidates::{pairs_within_self_walk_limit, pairs_within_walk_limit};
+            let expect = pairs_within_brute(&a, &b, gap);
+            prop_assert_eq!(&pairs_within(&a, &b, gap), &expect);
+            // Both ways of finding candidates: the R-tree (walk limit 0) and the walk.
+            prop_assert_eq!(&pairs_within_walk_limit(&a, &b, gap, 0), &expect);
             let mut within_a = pairs_within_brute(&a, &a, gap);
             within_a.retain(|(i, j)| i < j);
-            prop_assert_eq!(pairs_within_self(&a, gap), within_a);
+            prop_assert_eq!(&pairs_within_self(&a, gap), &within_a);
+            prop_assert_eq!(&pairs_within_self_walk_limit(&a, gap, 0), &within_a);
         }
 
         #[test]
         fn greedy_simplification_agrees_with_brute_force(
-            // Up to 64 segments new partners are found by a walk, beyond by an R-tree.
-            segs in prop_oneof![
-                proptest::collection::vec(segment_near_directions(), 0..22),
-                proptest::collection::vec(segment_near_directions(), 66..80),
-            ],
+            segs in proptest::collection::vec(segment_near_directions(), 0..22),
             ts in 0.01f64..0.3,
             gap in prop_oneof![Just(f64::INFINITY), 0.1f64..1.0],
         ) {
             let p = MergeParams { simplify_threshold: ts, max_gap_m: gap, ..MergeParams::default() };
             let dirs = dirs60();
-            prop_assert_eq!(simplify(&segs, &dirs, &p), simplify_brute(&segs, &dirs, &p));
+            let expect = simplify_brute(&segs, &dirs, &p);
+            prop_assert_eq!(&simplify(&segs, &dirs, &p), &expect);
+            // New partners by the R-tree (walk limit 0) as well as by the walk.
+            let by_tree = crate::merge::simplify::simplify_with_walk_limit(&segs, &dirs, &p, 0);
+            prop_assert_eq!(&by_tree, &expect);
         }
     }
 }
