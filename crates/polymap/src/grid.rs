@@ -54,6 +54,44 @@ impl<K> Entry<K> {
     }
 }
 
+/// What a search for the nearest segment to a point `at` found: the nearest segment (if any
+/// within the grid's reach) and a distance that every other segment is at least as far from
+/// `at`. Near `at`, it answers the same query again without a search.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NearestCertificate {
+    at: Vec2,
+    /// Distance from `at` (metres), the segment, `end − start`, `1 / |end − start|²`.
+    nearest: Option<(f64, Segment, Vec2, f64)>,
+    /// Every segment but the nearest is at least this far from `at`, metres.
+    clear_m: f64,
+}
+
+impl NearestCertificate {
+    /// The answer of a search for the nearest segment within `max_distance_m` of `p`, when the
+    /// certificate decides it: `p` has not moved far enough from `at` for another segment to
+    /// come as near as the nearest. `None` when a new search is needed.
+    ///
+    /// The answer is the one the search would give: the gate is applied to the same squared
+    /// distance, computed the same way.
+    pub fn answer(&self, p: Vec2, max_distance_m: f64) -> Option<Option<Segment>> {
+        let moved = (p - self.at).length();
+        // A hair for the rounding of the distances compared.
+        let hair = 1e-9 * (1.0 + self.clear_m);
+        match self.nearest {
+            Some((near_m, segment, vector, inv_len_2)) => {
+                if near_m + 2.0 * moved + hair >= self.clear_m {
+                    return None;
+                }
+                let w = p - segment.start;
+                let t = (w.dot(vector) * inv_len_2).clamp(0.0, 1.0);
+                let d_2 = (w - vector * t).length_squared();
+                Some((d_2 <= max_distance_m * max_distance_m).then_some(segment))
+            }
+            None => (max_distance_m + moved + hair < self.clear_m).then_some(None),
+        }
+    }
+}
+
 /// Segments keyed by `K`, bucketed in square cells.
 ///
 /// ```
@@ -203,6 +241,38 @@ impl<K: Copy + Ord> SegmentGrid<K> {
         best.map(|(_, e)| e)
     }
 
+    /// The nearest segment within the grid's reach of `p`, with a certificate that answers
+    /// later queries near `p` without a search (see [`NearestCertificate::answer`]).
+    pub fn nearest_certified(&self, p: Vec2) -> NearestCertificate {
+        let reach_2 = self.reach_m * self.reach_m;
+        let mut best: Option<(f64, &Entry<K>)> = None;
+        let mut second_2 = reach_2;
+        if let Some(list) = self.cells.get(&self.cell_of(p)) {
+            for e in list {
+                // Entries come by increasing floor: past the runner-up nothing changes.
+                if e.floor_2 > second_2 {
+                    break;
+                }
+                let (d_2, _) = e.distance_2(p);
+                match best {
+                    Some((bd, _)) if d_2 >= bd => second_2 = second_2.min(d_2),
+                    _ => {
+                        if let Some((bd, _)) = best {
+                            second_2 = second_2.min(bd);
+                        }
+                        best = Some((d_2, e));
+                    }
+                }
+            }
+        }
+        // Segments not listed in `p`'s cell are further than the reach from `p`.
+        NearestCertificate {
+            at: p,
+            nearest: best.map(|(d_2, e)| (d_2.sqrt(), e.segment, e.vector, e.inv_len_2)),
+            clear_m: second_2.sqrt(),
+        }
+    }
+
     /// Keys of the segments that come within `margin_m` of segment `s`, sorted, no repeats.
     pub fn near_segment(&self, s: &Segment, margin_m: f64) -> Vec<K> {
         // A segment is listed in many cells: gather, drop repeats, then measure each once.
@@ -309,6 +379,44 @@ mod tests {
             let near: Vec<usize> = kept.iter().filter(|(_, s)| s.distance_to_segment(&probe) <= d).map(|(i, _)| *i).collect();
             prop_assert_eq!(grid.near_segment(&probe, d), near);
         }
+    }
+
+    proptest! {
+        /// A certificate's answer, when it gives one, is the search's answer.
+        #[test]
+        fn certified_answers_agree_with_the_search(
+            raw in proptest::collection::vec((-4.0f64..4.0, -4.0f64..4.0, -4.0f64..4.0, -4.0f64..4.0), 0..20),
+            qx in -5.0f64..5.0, qy in -5.0f64..5.0,
+            moves in proptest::collection::vec((-0.2f64..0.2, -0.2f64..0.2, 0.0f64..1.0), 1..8),
+        ) {
+            let mut grid = SegmentGrid::new(0.5, 1.0);
+            for (i, &(a, b, c, e)) in raw.iter().enumerate() {
+                grid.insert(i, Segment::new(Vec2::new(a, b), Vec2::new(c, e)));
+            }
+            let at = Vec2::new(qx, qy);
+            let certificate = grid.nearest_certified(at);
+            for &(dx, dy, gate) in &moves {
+                let p = at + Vec2::new(dx, dy);
+                if let Some(answer) = certificate.answer(p, gate) {
+                    prop_assert_eq!(answer, grid.nearest_segment(p, gate).map(|(_, s)| s));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_certificate_answers_small_moves_near_a_lone_wall() {
+        let mut grid = SegmentGrid::new(0.5, 1.0);
+        let wall = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0));
+        grid.insert(1u8, wall);
+        let certificate = grid.nearest_certified(Vec2::new(2.0, 0.1));
+        // Nothing else within the reach: moves up to (1.0 − 0.1) / 2 are decided.
+        assert_eq!(
+            certificate.answer(Vec2::new(2.3, 0.2), 0.25),
+            Some(Some(wall))
+        );
+        assert_eq!(certificate.answer(Vec2::new(2.3, 0.2), 0.1), Some(None));
+        assert_eq!(certificate.answer(Vec2::new(2.0, 0.7), 0.25), None);
     }
 
     #[test]

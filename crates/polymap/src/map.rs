@@ -5,7 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::align::SegmentLookup;
 use crate::geometry::{Segment, SegmentProjection, Vec2};
-use crate::grid::SegmentGrid;
+use crate::grid::{NearestCertificate, SegmentGrid};
 
 /// One segment of the global map, in the map frame, with its provenance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -184,6 +184,10 @@ impl SegmentLookup for GlobalMap {
 
     fn nearest_segment_only(&self, p: Vec2, max_distance_m: f64) -> Option<Segment> {
         self.grid.nearest_segment(p, max_distance_m).map(|(_, s)| s)
+    }
+
+    fn nearest_certified(&self, p: Vec2) -> Option<NearestCertificate> {
+        Some(self.grid.nearest_certified(p))
     }
 }
 

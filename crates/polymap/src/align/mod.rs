@@ -26,6 +26,7 @@ mod solver;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
+use crate::grid::NearestCertificate;
 pub use endpoints::align_endpoints;
 pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
@@ -145,6 +146,13 @@ pub trait SegmentLookup {
     /// then skip computing).
     fn nearest_segment_only(&self, p: Vec2, max_distance_m: f64) -> Option<Segment> {
         self.nearest_segment(p, max_distance_m).map(|(s, _)| s)
+    }
+
+    /// The nearest segment to `p` with a certificate that answers later queries near `p`
+    /// exactly as [`SegmentLookup::nearest_segment_only`] would, without a search; `None` when
+    /// the implementation offers none.
+    fn nearest_certified(&self, _p: Vec2) -> Option<NearestCertificate> {
+        None
     }
 }
 

@@ -3,6 +3,7 @@
 use super::solver::{Constraint, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::geometry::{Pose2, Vec2};
+use crate::grid::NearestCertificate;
 
 /// Keeps points at least `spacing_m` from the previously kept one (in order), so that close
 /// walls, sampled densely, do not outweigh far ones.
@@ -35,10 +36,24 @@ pub fn align_points(
     anchor: Pose2,
     params: &AlignParams,
 ) -> AlignResult {
+    // Per point, what the last search found: while a point moves little between iterations,
+    // its nearest segment is known without searching again (same answers, exactly).
+    let mut certificates: Vec<Option<NearestCertificate>> = vec![None; points_in_robot.len()];
     run_icp(guess, anchor, params, |pose, gate_m, out| {
-        for &p in points_in_robot {
+        for (&p, certificate) in points_in_robot.iter().zip(&mut certificates) {
             let q = pose.transform_point(p);
-            let Some(s) = map.nearest_segment_only(q, gate_m) else {
+            let known = certificate.and_then(|c| c.answer(q, gate_m));
+            let nearest = match known {
+                Some(answer) => answer,
+                None => {
+                    *certificate = map.nearest_certified(q);
+                    match certificate.and_then(|c| c.answer(q, gate_m)) {
+                        Some(answer) => answer,
+                        None => map.nearest_segment_only(q, gate_m),
+                    }
+                }
+            };
+            let Some(s) = nearest else {
                 continue;
             };
             let len = s.length();
