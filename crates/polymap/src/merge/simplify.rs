@@ -13,7 +13,7 @@ use rstar::RTree;
 use super::candidates::{
     BRUTE_FORCE_PAIRS, box_entry, boxes_within, expanded_envelope, pairs_within_self_walk_limit,
 };
-use super::{MergeParams, best_merge_at_most, units};
+use super::{MergeParams, best_merge, best_merge_at_most, units};
 use crate::geometry::{Segment, Vec2};
 
 /// One segment of the simplified set.
@@ -177,7 +177,6 @@ pub fn simplify_brute(
     directions_rad: &[f64],
     params: &MergeParams,
 ) -> Simplified {
-    let directions = units(directions_rad);
     let mut segs: Vec<Segment> = input.to_vec();
     let mut alive = vec![true; segs.len()];
     let mut merges = 0;
@@ -191,13 +190,8 @@ pub fn simplify_brute(
                 {
                     continue;
                 }
-                if let Some((_, m)) = best_merge_at_most(
-                    &segs[i],
-                    &segs[j],
-                    &directions,
-                    params.k,
-                    params.simplify_threshold,
-                ) {
+                // The full cost over every direction: the oracle does not share the pruning.
+                if let Some((_, m)) = best_merge(&segs[i], &segs[j], directions_rad, params.k) {
                     let c = Candidate {
                         cost: m.cost,
                         i,
