@@ -141,37 +141,51 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
         false => None,
     };
     // Reading and extraction run ahead on a second thread; the mapping, which carries state
-    // from scan to scan, stays on this one, in log order: the result is the same as one thread's.
-    run.stats = std::thread::scope(|s| -> Result<CarmenStats> {
-        let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD_BATCHES);
-        let reading = s.spawn(move || read_ahead(reader, config, a.max_scans, tx));
-        let mut waited = Instant::now();
-        for batch in rx {
-            run.wait_time += waited.elapsed();
-            for ready in batch? {
-                let t1 = Instant::now();
-                run.read_time += ready.read;
-                let update = run.mapper.push_prepared(ready.prepared);
-                let map_time = t1.elapsed();
-                if let Some(w) = diag.as_mut() {
-                    w.write(&ready.scan.stamp.text, &update)?;
-                }
-                run.record(ready.scan, update, map_time, a.svg_points);
-                if run.poses.len() % 64 == 0 {
-                    bar.set_position(bytes_read.load(Ordering::Relaxed));
-                    bar.set_message(format!(
-                        "{} scans, {} segments",
-                        run.poses.len(),
-                        run.last.map_segments
-                    ));
-                }
+    // from scan to scan, stays on this one, in log order: the result is the same as one
+    // thread's. A regular file is handed over in batches; a pipe or FIFO scan by scan, so a
+    // live stream is mapped as it arrives.
+    let batch = if size > 0 && std::fs::metadata(log).is_ok_and(|m| m.is_file()) {
+        READ_AHEAD_SCANS
+    } else {
+        1
+    };
+    let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD_BATCHES);
+    let reading = {
+        let config = config.clone();
+        let max_scans = a.max_scans;
+        std::thread::Builder::new()
+            .name("polymap-read".into())
+            .spawn(move || read_ahead(reader, &config, max_scans, batch, tx))
+            .with_context(|| format!("{}: cannot start the reading thread", log.display()))?
+    };
+    // On an error this returns at once, dropping `rx`: the reading thread ends at its next
+    // hand-over and is not waited for (it may be blocked reading a stream).
+    let mut waited = Instant::now();
+    for batch in rx {
+        run.wait_time += waited.elapsed();
+        for ready in batch? {
+            let t1 = Instant::now();
+            run.read_time += ready.read;
+            let update = run.mapper.push_prepared(ready.prepared);
+            let map_time = t1.elapsed();
+            if let Some(w) = diag.as_mut() {
+                w.write(&ready.scan.stamp.text, &update)?;
             }
-            waited = Instant::now();
+            run.record(ready.scan, update, map_time, a.svg_points);
+            if run.poses.len() % 64 == 0 {
+                bar.set_position(bytes_read.load(Ordering::Relaxed));
+                bar.set_message(format!(
+                    "{} scans, {} segments",
+                    run.poses.len(),
+                    run.last.map_segments
+                ));
+            }
         }
-        reading
-            .join()
-            .map_err(|_| anyhow::anyhow!("{}: the reading thread failed", log.display()))
-    })?;
+        waited = Instant::now();
+    }
+    run.stats = reading
+        .join()
+        .map_err(|_| anyhow::anyhow!("{}: the reading thread failed", log.display()))?;
     bar.finish_and_clear();
     if let Some(w) = diag {
         w.finish()?;
@@ -180,7 +194,8 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     Ok(run)
 }
 
-/// Scans are handed from the reading thread to the mapping thread in batches of this many...
+/// Scans are handed from the reading thread to the mapping thread in batches of this many
+/// (from a regular file)...
 const READ_AHEAD_SCANS: usize = 32;
 /// ...with at most this many batches in flight, which bounds the memory read ahead.
 const READ_AHEAD_BATCHES: usize = 8;
@@ -193,15 +208,17 @@ struct Ready {
     read: Duration,
 }
 
-/// Reads up to `max_scans` scans and prepares them for the mapper, sending them in batches; a
-/// read error is sent after the scans before it. Stops early when the receiver has gone.
+/// Reads up to `max_scans` scans and prepares them for the mapper, sending them in batches of
+/// `batch_scans`; a read error is sent after the scans before it. Stops early when the
+/// receiver has gone.
 fn read_ahead(
     mut reader: LogReader,
     config: &Config,
     max_scans: Option<u64>,
+    batch_scans: usize,
     tx: std::sync::mpsc::SyncSender<Result<Vec<Ready>>>,
 ) -> CarmenStats {
-    let mut batch = Vec::with_capacity(READ_AHEAD_SCANS);
+    let mut batch = Vec::with_capacity(batch_scans);
     let mut count = 0u64;
     while max_scans.is_none_or(|m| count < m) {
         let t0 = Instant::now();
@@ -222,11 +239,11 @@ fn read_ahead(
             read,
         });
         count += 1;
-        if batch.len() == READ_AHEAD_SCANS
+        if batch.len() >= batch_scans
             && tx
                 .send(Ok(std::mem::replace(
                     &mut batch,
-                    Vec::with_capacity(READ_AHEAD_SCANS),
+                    Vec::with_capacity(batch_scans),
                 )))
                 .is_err()
         {

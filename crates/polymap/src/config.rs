@@ -91,7 +91,7 @@ impl Config {
             &self.merge,
             &self.mapper,
         );
-        let checks: [(&str, bool); 16] = [
+        let checks: [(&str, bool); 17] = [
             (
                 "extract.tolerance_m",
                 e.tolerance_m.is_finite() && e.tolerance_m > 0.0,
@@ -121,6 +121,10 @@ impl Config {
             (
                 "align.rotation_search_step_deg",
                 a.rotation_search_step_deg >= 0.1 && a.rotation_search_step_deg <= 90.0,
+            ),
+            (
+                "align.rotation_search_sigma_m",
+                a.rotation_search_sigma_m.is_finite() && a.rotation_search_sigma_m > 0.0,
             ),
             ("directions.bins", (1..=3600).contains(&d.bins)),
             (

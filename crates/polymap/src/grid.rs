@@ -87,7 +87,8 @@ impl NearestCertificate {
                 let d_2 = (w - vector * t).length_squared();
                 Some((d_2 <= max_distance_m * max_distance_m).then_some(segment))
             }
-            None => (max_distance_m + moved + hair < self.clear_m).then_some(None),
+            // The search squares the distance it is given, so a negative one acts as its size.
+            None => (max_distance_m.abs() + moved + hair < self.clear_m).then_some(None),
         }
     }
 }
@@ -417,6 +418,20 @@ mod tests {
         );
         assert_eq!(certificate.answer(Vec2::new(2.3, 0.2), 0.1), Some(None));
         assert_eq!(certificate.answer(Vec2::new(2.0, 0.7), 0.25), None);
+    }
+
+    /// Found in review: the search squares the distance it is given, the certificate once
+    /// compared a negative one as it was.
+    #[test]
+    fn a_certificate_treats_a_negative_distance_as_the_search_does() {
+        let mut grid = SegmentGrid::new(0.5, 1.0);
+        let wall = Segment::new(Vec2::new(2.0, -3.0), Vec2::new(2.0, 3.0));
+        grid.insert(1u8, wall);
+        let certificate = grid.nearest_certified(Vec2::new(0.1, 0.1));
+        let p = Vec2::new(1.2, 0.1);
+        let searched = grid.nearest_segment(p, -0.9).map(|(_, s)| s);
+        assert_eq!(searched, Some(wall));
+        assert!(certificate.answer(p, -0.9).is_none_or(|a| a == searched));
     }
 
     #[test]

@@ -69,8 +69,9 @@ pub fn fit_score(
 }
 
 /// [`fit_score`] when it exceeds `to_beat`, `None` otherwise. Every point counts at most 1, so
-/// the sum stops as soon as the points left cannot lift it above `to_beat`; the score, when
-/// returned, is the same sum in the same order as `fit_score`'s.
+/// the sum stops as soon as the points left cannot lift it above `to_beat` (with a margin for
+/// the rounding of the sum); the score, when returned, is the same sum in the same order as
+/// `fit_score`'s.
 pub fn fit_score_above(
     sample: &[Vec2],
     map: &impl SegmentLookup,
@@ -81,7 +82,8 @@ pub fn fit_score_above(
     let sigma = params.rotation_search_sigma_m;
     let mut sum = 0.0;
     for (i, p) in sample.iter().enumerate() {
-        if sum + (sample.len() - i) as f64 <= to_beat {
+        let left = (sample.len() - i) as f64;
+        if sum + left < to_beat - 1e-9 * (1.0 + to_beat.abs()) {
             return None;
         }
         if let Some((_, pr)) = map.nearest_segment(map_from_robot.transform_point(*p), sigma) {

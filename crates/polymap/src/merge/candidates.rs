@@ -22,7 +22,8 @@ pub(crate) fn expanded_envelope(s: &Segment, margin_m: f64) -> AABB<[f64; 2]> {
 }
 
 /// Up to this many pairs, testing every pair beats building an R-tree (measured: a scan meets
-/// 20 to 90 segments of its local map; up to about 250 the walk is faster).
+/// 20 to 90 segments of its local map; up to about 250 segments a side, 65,536 pairs, the
+/// walk is faster).
 pub(crate) const BRUTE_FORCE_PAIRS: usize = 65_536;
 
 /// All pairs `(i, j)` with `a[i]` and `b[j]` no further than `gap_m` apart (segment to segment),

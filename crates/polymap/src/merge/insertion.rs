@@ -82,10 +82,13 @@ fn cuts_with_walk_limit(
         )
     });
     let boxes: Vec<(Vec2, Vec2)> = targets.iter().map(Segment::bounds).collect();
+    // Both ways pre-select by boxes grown by `r` and a hair: the projection's rounding may put
+    // a target whose box is just beyond `r` within it, and the exact test below decides.
+    let grow = r * (1.0 + 1e-9) + 1e-12;
     for e in sources.iter().flat_map(|s| [s.start, s.end]) {
         let nearest = match &tree {
             Some(tree) => {
-                let env = AABB::from_corners([e.x - r, e.y - r], [e.x + r, e.y + r]);
+                let env = AABB::from_corners([e.x - grow, e.y - grow], [e.x + grow, e.y + grow]);
                 tree.locate_in_envelope_intersecting(env)
                     .map(|c| (c.data, targets[c.data].project(e)))
                     .min_by(closest)
@@ -93,7 +96,7 @@ fn cuts_with_walk_limit(
             None => boxes
                 .iter()
                 .enumerate()
-                .filter(|(_, b)| boxes_within((e, e), **b, r))
+                .filter(|(_, b)| boxes_within((e, e), **b, grow))
                 .map(|(j, _)| (j, targets[j].project(e)))
                 .min_by(closest),
         };
@@ -148,6 +151,25 @@ mod tests {
     fn segment() -> impl Strategy<Value = Segment> {
         (0.0f64..8.0, 0.0f64..8.0, -2.0f64..2.0, -2.0f64..2.0)
             .prop_map(|(x, y, dx, dy)| Segment::new(Vec2::new(x, y), Vec2::new(x + dx, y + dy)))
+    }
+
+    /// Found in review: the walk's box test once rejected a target that the projection's
+    /// rounding puts within the insertion distance, where the R-tree's looser envelope kept it.
+    #[test]
+    fn walk_and_tree_agree_at_the_insertion_distance() {
+        let target = Segment::new(
+            Vec2::new(8.086380767959202, -9.5358840208391),
+            Vec2::new(5.214068203938593, 9.198177437191713),
+        );
+        let e = Vec2::new(4.7312066729623865, 9.327964732037218);
+        let sources = [Segment::new(e, e + Vec2::new(0.0, 5.0))];
+        let p = MergeParams::default();
+        let by_tree = cuts_with_walk_limit(&sources, &[target], &p, 0);
+        assert_eq!(by_tree, vec![vec![1.0]]);
+        assert_eq!(
+            cuts_with_walk_limit(&sources, &[target], &p, usize::MAX),
+            by_tree
+        );
     }
 
     proptest! {
