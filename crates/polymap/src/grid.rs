@@ -213,8 +213,14 @@ impl<K: Copy + Ord> SegmentGrid<K> {
     fn nearest_entry<'a>(&'a self, p: Vec2, max_distance_m: f64) -> Option<&'a Entry<K>> {
         let max_2 = max_distance_m * max_distance_m;
         let mut best: Option<(f64, &'a Entry<K>)> = None;
-        let consider = |list: &'a Vec<Entry<K>>| {
+        // Within `p`'s own cell the floors bound the distance from `p`: entries come by
+        // increasing floor, so the walk ends at the first one that can be neither within reach
+        // nor nearer than the best. In other cells they bound nothing.
+        let mut consider = |list: &'a Vec<Entry<K>>, own_cell: bool| {
             for e in list {
+                if own_cell && (e.floor_2 > max_2 || best.is_some_and(|(bd, _)| e.floor_2 > bd)) {
+                    break;
+                }
                 let (d_2, _) = e.distance_2(p);
                 if d_2 <= max_2 && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key)) {
                     best = Some((d_2, e));
@@ -222,22 +228,12 @@ impl<K: Copy + Ord> SegmentGrid<K> {
             }
         };
         if max_distance_m <= self.reach_m {
-            // `p` is in this cell: entries come by increasing distance floor, so the walk ends
-            // at the first one that can be neither within reach nor nearer than the best.
             if let Some(list) = self.cells.get(&self.cell_of(p)) {
-                for e in list {
-                    if e.floor_2 > max_2 || best.is_some_and(|(bd, _)| e.floor_2 > bd) {
-                        break;
-                    }
-                    let (d_2, _) = e.distance_2(p);
-                    if d_2 <= max_2 && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key)) {
-                        best = Some((d_2, e));
-                    }
-                }
+                consider(list, true);
             }
         } else {
             let r = Vec2::splat(max_distance_m - self.reach_m);
-            self.for_cells(p - r, p + r, consider);
+            self.for_cells(p - r, p + r, |list| consider(list, false));
         }
         best.map(|(_, e)| e)
     }

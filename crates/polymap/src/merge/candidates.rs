@@ -48,7 +48,7 @@ pub(crate) fn pairs_within_walk_limit(
     walk_limit: usize,
 ) -> Vec<(usize, usize)> {
     if !gap_m.is_finite() || a.len().saturating_mul(b.len()) <= walk_limit {
-        return pairs_within_brute(a, b, gap_m);
+        return walk_pairs(a, b, gap_m, false);
     }
     let tree = RTree::bulk_load(b.iter().enumerate().map(|(j, s)| box_entry(s, j)).collect());
     let mut out = Vec::new();
@@ -68,7 +68,26 @@ pub fn pairs_within_brute(a: &[Segment], b: &[Segment], gap_m: f64) -> Vec<(usiz
     let mut out = Vec::new();
     for (i, s) in a.iter().enumerate() {
         for (j, t) in b.iter().enumerate() {
-            if s.distance_to_segment_within(t, gap_m).is_some() {
+            if s.distance_to_segment(t) <= gap_m {
+                out.push((i, j));
+            }
+        }
+    }
+    out
+}
+
+/// Every pair `(i, j)` of `a` and `b` within `gap_m`, sorted, boxes compared first; with
+/// `later_only` (when `a` and `b` are the same slice) only `i < j`.
+fn walk_pairs(a: &[Segment], b: &[Segment], gap_m: f64, later_only: bool) -> Vec<(usize, usize)> {
+    let boxes: Vec<(Vec2, Vec2)> = b.iter().map(Segment::bounds).collect();
+    let mut out = Vec::new();
+    for (i, s) in a.iter().enumerate() {
+        let first = if later_only { i + 1 } else { 0 };
+        let own = s.bounds();
+        for (j, t) in b.iter().enumerate().skip(first) {
+            if boxes_within(own, boxes[j], gap_m)
+                && s.distance_to_segment_within(t, gap_m).is_some()
+            {
                 out.push((i, j));
             }
         }
@@ -93,18 +112,7 @@ pub(crate) fn pairs_within_self_walk_limit(
         pairs.retain(|(i, j)| i < j);
         return pairs;
     }
-    let boxes: Vec<(Vec2, Vec2)> = segs.iter().map(Segment::bounds).collect();
-    let mut out = Vec::new();
-    for (i, s) in segs.iter().enumerate() {
-        for (j, t) in segs.iter().enumerate().skip(i + 1) {
-            if boxes_within(boxes[i], boxes[j], gap_m)
-                && s.distance_to_segment_within(t, gap_m).is_some()
-            {
-                out.push((i, j));
-            }
-        }
-    }
-    out
+    walk_pairs(segs, segs, gap_m, true)
 }
 
 /// False when two bounding boxes are further than `gap_m` apart, so that the segments inside
