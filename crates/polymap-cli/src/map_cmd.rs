@@ -111,7 +111,11 @@ pub fn run(a: &MapArgs) -> Result<()> {
 struct Run {
     mapper: Mapper,
     poses: Vec<StampedPose>,
+    /// Scan points drawn in the SVG (`--svg-points`): robot frame until [`Run::finish`] puts
+    /// them into the map frame with the final poses.
     points: Vec<Vec2>,
+    /// For each scan recorded, where its points end in `points`.
+    points_end: Vec<usize>,
     stats: CarmenStats,
     latencies: Vec<Duration>,
     /// Reading and parsing, on the reading thread.
@@ -190,6 +194,7 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     if let Some(w) = diag {
         w.finish()?;
     }
+    run.finish();
     run.elapsed = start.elapsed();
     Ok(run)
 }
@@ -321,6 +326,7 @@ impl Run {
             mapper,
             poses: Vec::new(),
             points: Vec::new(),
+            points_end: Vec::new(),
             stats: CarmenStats::default(),
             latencies: Vec::new(),
             read_time: Duration::ZERO,
@@ -345,12 +351,9 @@ impl Run {
         self.stages += update.diagnostics.stage_s;
         if svg_points && self.points.len() < MAX_SVG_POINTS {
             scan.points_in_robot(&mut self.scan_points);
-            self.points.extend(
-                self.scan_points
-                    .iter()
-                    .map(|p| update.map_from_robot.transform_point(*p)),
-            );
+            self.points.extend_from_slice(&self.scan_points);
         }
+        self.points_end.push(self.points.len());
         let mapper = &self.mapper;
         self.history.record_update(&update, || {
             SnapshotContent::of_map(
@@ -364,6 +367,28 @@ impl Run {
             map_from_robot: update.map_from_robot,
         });
         self.last = update.diagnostics;
+    }
+}
+
+impl Run {
+    /// Puts the final poses (with loop closure's corrections, which may have moved poses after
+    /// they were recorded) into the trajectory, and the SVG's points into the map frame.
+    fn finish(&mut self) {
+        let clock = Instant::now();
+        let loops = self.mapper.finish();
+        self.map_time += clock.elapsed();
+        self.stages.loops += clock.elapsed().as_secs_f64();
+        self.last.loops = loops;
+        for (p, q) in self.poses.iter_mut().zip(self.mapper.trajectory()) {
+            p.map_from_robot = *q;
+        }
+        let mut begin = 0;
+        for (end, p) in self.points_end.iter().zip(&self.poses) {
+            for q in &mut self.points[begin..*end] {
+                *q = p.map_from_robot.transform_point(*q);
+            }
+            begin = *end;
+        }
     }
 }
 
@@ -430,6 +455,7 @@ fn summary(
         "wait_s": run.wait_time.as_secs_f64(),
         "latency_ms": { "p50": p50, "p99": p99, "max": max },
         "icp_not_converged": run.icp_failures,
+        "loop_closures": run.mapper.loop_closures(),
         "stage_s": run.stages,
         "final_main_directions_deg": run.last.main_directions_deg,
         "reader": {

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 use crate::align::{AlignMethod, AlignParams};
 use crate::directions::DirectionParams;
 use crate::extract::ExtractParams;
+use crate::loops::LoopParams;
 use crate::mapper::{MapperParams, MotionPrior};
 use crate::merge::MergeParams;
 use crate::polyline::PolylineParams;
@@ -28,6 +29,8 @@ pub struct Config {
     pub merge: MergeParams,
     /// The loop around the stages.
     pub mapper: MapperParams,
+    /// Loop closure (an addition).
+    pub loops: LoopParams,
 }
 
 /// Names of the presets, for help texts.
@@ -69,6 +72,10 @@ impl Config {
                 also_start_at_anchor: false,
                 weak_direction_velocity: 0.0,
                 ..d.mapper
+            },
+            loops: LoopParams {
+                enabled: false,
+                ..d.loops
             },
             ..d
         }
@@ -145,7 +152,10 @@ impl Config {
         ];
         match checks.iter().find(|(_, ok)| !ok) {
             Some((key, _)) => Err(format!("{key} is out of range")),
-            None => Ok(()),
+            None => match self.loops.invalid_key() {
+                Some(key) => Err(format!("{key} is out of range")),
+                None => Ok(()),
+            },
         }
     }
 

@@ -15,6 +15,7 @@
 //! - [`cost`]: the merged segment `ms(L1, L2, ad)` and the cost `C(L1, L2, ad)`.
 //! - [`merge`]: vertex insertion, restrictive pairing, simplification.
 //! - [`mapper`]: the incremental loop owning `G_t`.
+//! - [`loops`]: loop closure over a pose graph of trajectory stretches (an addition).
 //!
 //! Support: [`geometry`] (points, SE(2) poses, segments, undirected angles), [`map`] (the map
 //! store), [`grid`] (its spatial index), [`config`] (the configuration tree and presets).
@@ -29,6 +30,7 @@ pub mod directions;
 pub mod extract;
 pub mod geometry;
 pub mod grid;
+pub mod loops;
 pub mod map;
 pub mod mapper;
 pub mod merge;

@@ -52,15 +52,18 @@ pub fn sim(name: &str) -> SimRun {
 pub fn map_run(run: &SimRun, config: Config) -> (Mapper, Vec<Update>) {
     let mut mapper = Mapper::new(config);
     let updates = run.scans.iter().map(|s| mapper.push(s)).collect();
+    mapper.finish();
     (mapper, updates)
 }
 
-/// Estimated poses paired with the true poses in the first scan's frame (the map frame).
-pub fn pose_pairs(run: &SimRun, updates: &[Update]) -> Vec<(Pose2, Pose2)> {
-    updates
+/// The mapper's final poses (after loop closure) paired with the true poses in the first
+/// scan's frame (the map frame).
+pub fn pose_pairs(run: &SimRun, mapper: &Mapper) -> Vec<(Pose2, Pose2)> {
+    mapper
+        .trajectory()
         .iter()
+        .copied()
         .zip(run.true_poses_in_first_frame())
-        .map(|(u, t)| (u.map_from_robot, t))
         .collect()
 }
 

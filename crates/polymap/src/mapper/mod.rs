@@ -19,6 +19,7 @@ use crate::config::Config;
 use crate::directions::main_directions;
 use crate::extract::extract_segments;
 use crate::geometry::{Pose2, Segment, Vec2};
+use crate::loops::{Correction, LoopCloser, LoopDiagnostics};
 use crate::map::{GlobalMap, MapSegment};
 use crate::polyline::group_polylines;
 use crate::scan::RangeScan;
@@ -93,6 +94,8 @@ pub struct ScanDiagnostics {
     pub map_segments: usize,
     /// Wall-clock time of each stage for this scan, seconds.
     pub stage_s: StageSeconds,
+    /// What loop closure did (all zero unless the scan completed a node).
+    pub loops: LoopDiagnostics,
 }
 
 /// Wall-clock seconds spent in each stage of one [`Mapper::push`].
@@ -106,6 +109,8 @@ pub struct StageSeconds {
     pub directions: f64,
     /// Vertex insertion, pairing, simplification and the map update.
     pub merge: f64,
+    /// Loop closure: node bookkeeping, submap matching, graph optimisation and corrections.
+    pub loops: f64,
 }
 
 impl std::ops::AddAssign for StageSeconds {
@@ -114,6 +119,7 @@ impl std::ops::AddAssign for StageSeconds {
         self.align += o.align;
         self.directions += o.directions;
         self.merge += o.merge;
+        self.loops += o.loops;
     }
 }
 
@@ -151,6 +157,8 @@ pub struct Mapper {
     last_pose: Option<Pose2>,
     prev_pose: Option<Pose2>,
     last_odom: Option<Pose2>,
+    loops: LoopCloser,
+    trajectory: Vec<Pose2>,
 }
 
 impl Mapper {
@@ -159,11 +167,17 @@ impl Mapper {
         let reach_m = config.align.initial_gate_m.max(config.align.final_gate_m);
         Mapper {
             map: GlobalMap::new(config.mapper.grid_cell_m, reach_m),
-            config,
             scans: 0,
             last_pose: None,
             prev_pose: None,
             last_odom: None,
+            loops: LoopCloser::new(
+                config.loops.clone(),
+                config.align.clone(),
+                config.mapper.grid_cell_m,
+            ),
+            trajectory: Vec::new(),
+            config,
         }
     }
 
@@ -186,6 +200,28 @@ impl Mapper {
     pub fn polylines(&self) -> Vec<Vec<usize>> {
         let segs: Vec<Segment> = self.map.iter().map(|(_, s)| s.segment).collect();
         group_polylines(&segs, self.config.polyline.max_gap_m)
+    }
+
+    /// The pose of every scan pushed so far (map frame), with every loop closure's correction
+    /// applied: the best estimate, which may differ from the poses [`Mapper::push`] returned.
+    pub fn trajectory(&self) -> &[Pose2] {
+        &self.trajectory
+    }
+
+    /// Applies loop closure's last pending match (see [`crate::loops`]); call it after the last
+    /// scan, before reading [`Mapper::trajectory`] and the map for good. Pushing more scans
+    /// afterwards is fine.
+    pub fn finish(&mut self) -> LoopDiagnostics {
+        let mut diagnostics = LoopDiagnostics::default();
+        if let Some(c) = self.loops.finish(&mut diagnostics) {
+            self.apply_correction(&c);
+        }
+        diagnostics
+    }
+
+    /// Loop edges accepted so far.
+    pub fn loop_closures(&self) -> usize {
+        self.loops.loop_edges()
     }
 
     /// Number of scans pushed so far.
@@ -247,6 +283,21 @@ impl Mapper {
             merge_step::merge_scan(&mut self.map, &scan_in_map, &directions, t, &self.config);
         let merged = Instant::now();
         self.scans += 1;
+        self.trajectory.push(pose);
+        let mut loops = LoopDiagnostics::default();
+        if self.config.loops.enabled {
+            let correction = self.loops.add_scan(
+                t,
+                pose,
+                &scan.points_in_robot,
+                &scan.segments_in_robot,
+                &mut loops,
+            );
+            if let Some(c) = correction {
+                self.apply_correction(&c);
+            }
+        }
+        let closed = Instant::now();
         let diagnostics = ScanDiagnostics {
             points: scan.points_in_robot.len(),
             scan_segments: scan.segments_in_robot.len(),
@@ -259,13 +310,65 @@ impl Mapper {
                 align: (aligned - clock).as_secs_f64(),
                 directions: (directed - aligned).as_secs_f64(),
                 merge: (merged - directed).as_secs_f64(),
+                loops: (closed - merged).as_secs_f64(),
             },
+            loops,
         };
         Update {
             scan_index: t,
             map_from_robot: pose,
             diagnostics,
         }
+    }
+
+    /// Moves every map segment, scan pose and the motion state by the correction of the node
+    /// it was born in (segments merged later than their node's end move with the node of
+    /// their last merge).
+    fn apply_correction(&mut self, c: &Correction) {
+        let Some(last) = c.new_from_old.last().copied() else {
+            return;
+        };
+        let ns = self.config.loops.node_scans;
+        let first_scan = (c.first_node as u64 * ns as u64).min(u32::MAX as u64) as u32;
+        let delta = |t: u32| {
+            let n = (t / ns) as usize;
+            n.checked_sub(c.first_node)
+                .and_then(|i| c.new_from_old.get(i).copied())
+                .unwrap_or(last)
+        };
+        // Segments that move less than this stay (re-indexing is the costly part).
+        const STAY_M: f64 = 5e-4;
+        let moved: Vec<_> = self
+            .map
+            .iter()
+            .filter(|(_, s)| s.born_scan >= first_scan)
+            .filter_map(|(id, s)| {
+                let d = delta(s.born_scan);
+                let segment = s.segment.transformed(&d);
+                let far = segment.start.distance_squared(s.segment.start) > STAY_M * STAY_M
+                    || segment.end.distance_squared(s.segment.end) > STAY_M * STAY_M;
+                far.then_some((id, segment, s.born_scan))
+            })
+            .collect();
+        for (id, _, _) in &moved {
+            self.map.remove(*id);
+        }
+        for (_, segment, born_scan) in moved {
+            self.map.insert(MapSegment { segment, born_scan });
+        }
+        for (t, pose) in self
+            .trajectory
+            .iter_mut()
+            .enumerate()
+            .skip(first_scan as usize)
+        {
+            *pose = delta(t as u32).compose(pose);
+        }
+        let t = self.scans.saturating_sub(1);
+        self.last_pose = self.last_pose.map(|p| delta(t).compose(&p));
+        self.prev_pose = self
+            .prev_pose
+            .map(|p| delta(t.saturating_sub(1)).compose(&p));
     }
 
     /// The first guess for the new scan's pose, and the anchor that directions ICP cannot

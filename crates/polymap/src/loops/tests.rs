@@ -1,0 +1,306 @@
+//! Tests of loop closure on scans ray-cast in small worlds, with drift added to the poses.
+
+use super::*;
+use crate::config::Config;
+use crate::mapper::Mapper;
+use crate::testutil::scan_from;
+
+fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
+    Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
+}
+
+/// A ring corridor around a 14 × 6 m block inside a 20 × 12 m room, with notches so that no
+/// two places look alike.
+fn ring() -> Vec<Segment> {
+    vec![
+        // Outer walls with a notch on the south side and one on the east.
+        seg(0.0, 0.0, 8.0, 0.0),
+        seg(8.0, 0.0, 8.0, -1.0),
+        seg(8.0, -1.0, 9.5, -1.0),
+        seg(9.5, -1.0, 9.5, 0.0),
+        seg(9.5, 0.0, 20.0, 0.0),
+        seg(20.0, 0.0, 20.0, 7.0),
+        seg(20.0, 7.0, 21.0, 7.0),
+        seg(21.0, 7.0, 21.0, 8.0),
+        seg(21.0, 8.0, 20.0, 8.0),
+        seg(20.0, 8.0, 20.0, 12.0),
+        seg(20.0, 12.0, 0.0, 12.0),
+        seg(0.0, 12.0, 0.0, 0.0),
+        // The block, with a box on its north side.
+        seg(3.0, 3.0, 17.0, 3.0),
+        seg(17.0, 3.0, 17.0, 9.0),
+        seg(17.0, 9.0, 12.0, 9.0),
+        seg(12.0, 9.0, 12.0, 9.8),
+        seg(12.0, 9.8, 11.0, 9.8),
+        seg(11.0, 9.8, 11.0, 9.0),
+        seg(11.0, 9.0, 3.0, 9.0),
+        seg(3.0, 9.0, 3.0, 3.0),
+    ]
+}
+
+/// True poses around the ring's corridor, counter-clockwise, about 0.15 m per scan, turning
+/// in place at the corners; `sides` sides of the corridor (4: once round).
+fn lap(sides: usize) -> Vec<Pose2> {
+    let corners = [
+        Vec2::new(1.5, 1.5),
+        Vec2::new(18.5, 1.5),
+        Vec2::new(18.5, 10.5),
+        Vec2::new(1.5, 10.5),
+    ];
+    let mut poses = Vec::new();
+    for i in 0..=sides {
+        let a = corners[i % 4];
+        let b = corners[(i + 1) % 4];
+        let heading = (b - a).y.atan2((b - a).x);
+        if let Some(last) = poses.last().copied() {
+            let last: Pose2 = last;
+            let turn = normalize(heading - last.theta_rad);
+            for s in 1..=6 {
+                poses.push(Pose2::new(a.x, a.y, last.theta_rad + turn * s as f64 / 6.0));
+            }
+        }
+        if i == sides {
+            break;
+        }
+        let steps = ((b - a).length() / 0.15).ceil() as usize;
+        for s in 0..steps {
+            let p = a + (b - a) * (s as f64 / steps as f64);
+            poses.push(Pose2::new(p.x, p.y, heading));
+        }
+    }
+    poses
+}
+
+fn normalize(a: f64) -> f64 {
+    crate::geometry::normalize_angle_rad(a)
+}
+
+/// The mapper's poses with drift: heading error growing 0.01° per scan (and the position
+/// error it causes), as dead reckoning would have.
+fn drifted(truth: &[Pose2]) -> Vec<Pose2> {
+    let mut out = vec![truth[0]];
+    let bias = Pose2::new(0.0, 0.0, 0.01f64.to_radians());
+    for w in truth.windows(2) {
+        let step = w[0].between(&w[1]);
+        let last = *out.last().unwrap();
+        out.push(last.compose(&step).compose(&bias));
+    }
+    out
+}
+
+fn params() -> LoopParams {
+    LoopParams {
+        node_scans: 10,
+        node_keep_every: 2,
+        ..LoopParams::default()
+    }
+}
+
+/// Feeds the drifted poses to a loop closer, applying its corrections to them (as the mapper
+/// does); returns the corrected poses and the closer.
+fn run(truth: &[Pose2], walls: &[Segment], params: LoopParams) -> (Vec<Pose2>, LoopCloser) {
+    let config = Config::default();
+    let mut closer = LoopCloser::new(params.clone(), config.align.clone(), 0.5);
+    let mut poses = drifted(truth);
+    let mut diagnostics = LoopDiagnostics::default();
+    let ns = params.node_scans as usize;
+    let apply = |poses: &mut [Pose2], c: &Correction, upto: usize| {
+        for (t, p) in poses.iter_mut().enumerate().take(upto) {
+            let n = t / ns;
+            if let Some(d) = n
+                .checked_sub(c.first_node)
+                .and_then(|i| c.new_from_old.get(i))
+            {
+                *p = d.compose(p);
+            }
+        }
+    };
+    for t in 0..truth.len() {
+        let prepared = Mapper::prepare(&config, &scan_from(walls, &truth[t], t as f64 * 0.1));
+        let correction = closer.add_scan(
+            t as u32,
+            poses[t],
+            &prepared.points_in_robot,
+            &prepared.segments_in_robot,
+            &mut diagnostics,
+        );
+        if let Some(c) = correction {
+            // Poses not yet handed over move with the newest node.
+            let newest = *c.new_from_old.last().unwrap();
+            apply(&mut poses, &c, t + 1);
+            for p in &mut poses[t + 1..] {
+                *p = newest.compose(p);
+            }
+        }
+    }
+    if let Some(c) = closer.finish(&mut diagnostics) {
+        let n = poses.len();
+        apply(&mut poses, &c, n);
+    }
+    (poses, closer)
+}
+
+/// Largest error of the poses relative to the first, metres.
+fn worst(truth: &[Pose2], poses: &[Pose2]) -> f64 {
+    truth
+        .iter()
+        .zip(poses)
+        .map(|(t, p)| {
+            truth[0]
+                .between(t)
+                .between(&poses[0].between(p))
+                .translation()
+                .length()
+        })
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn returning_to_mapped_ground_removes_most_of_the_drift() {
+    let truth = lap(5);
+    let walls = ring();
+    let before = worst(&truth, &drifted(&truth));
+    let (after, closer) = run(&truth, &walls, params());
+    let after = worst(&truth, &after);
+    assert!(before > 0.5, "the drift is meant to be large: {before}");
+    assert!(closer.loop_edges() > 0);
+    // The end of the lap is where the drift was largest; the loop edge ties it to the start.
+    let end_before = truth[0]
+        .between(truth.last().unwrap())
+        .between(&drifted(&truth)[0].between(drifted(&truth).last().unwrap()));
+    assert!(end_before.translation().length() > 0.5);
+    assert!(
+        after < 0.5 * before,
+        "worst error {before:.3} m before, {after:.3} m after"
+    );
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread() {
+    let truth = lap(5);
+    let walls = ring();
+    let (a, ca) = run(&truth, &walls, params());
+    let (b, cb) = run(
+        &truth,
+        &walls,
+        LoopParams {
+            background: false,
+            ..params()
+        },
+    );
+    assert_eq!(a, b);
+    assert_eq!(ca.loop_edges(), cb.loop_edges());
+    assert!(ca.loop_edges() > 0);
+}
+
+#[test]
+fn disabled_changes_nothing() {
+    let truth = lap(5);
+    let (poses, closer) = run(
+        &truth,
+        &ring(),
+        LoopParams {
+            enabled: false,
+            ..params()
+        },
+    );
+    assert_eq!(poses, drifted(&truth));
+    assert_eq!(closer.loop_edges(), 0);
+}
+
+#[test]
+fn a_featureless_corridor_gives_no_loop_edge() {
+    // Walls 200 m long: along the corridor nothing tells one place from another.
+    let walls = vec![seg(-100.0, -1.5, 100.0, -1.5), seg(-100.0, 1.5, 100.0, 1.5)];
+    let mut truth: Vec<Pose2> = (0..200)
+        .map(|i| Pose2::new(0.1 * i as f64, 0.0, 0.0))
+        .collect();
+    let back: Vec<Pose2> = (0..200)
+        .map(|i| Pose2::new(20.0 - 0.1 * i as f64, 0.0, std::f64::consts::PI))
+        .collect();
+    truth.extend(back);
+    let (_, closer) = run(&truth, &walls, params());
+    assert_eq!(closer.loop_edges(), 0);
+}
+
+#[test]
+fn a_clone_carries_on_like_the_original() {
+    let truth = lap(5);
+    let walls = ring();
+    let config = Config::default();
+    let mut a = LoopCloser::new(params(), config.align.clone(), 0.5);
+    let poses = drifted(&truth);
+    let mut d = LoopDiagnostics::default();
+    let feed = |c: &mut LoopCloser, t: usize, d: &mut LoopDiagnostics| {
+        let prepared = Mapper::prepare(&config, &scan_from(&walls, &truth[t], t as f64 * 0.1));
+        c.add_scan(
+            t as u32,
+            poses[t],
+            &prepared.points_in_robot,
+            &prepared.segments_in_robot,
+            d,
+        )
+    };
+    let half = truth.len() / 2;
+    for t in 0..half {
+        feed(&mut a, t, &mut d);
+    }
+    let mut b = a.clone();
+    for t in half..truth.len() {
+        assert_eq!(feed(&mut a, t, &mut d), feed(&mut b, t, &mut d));
+    }
+    assert_eq!(a.finish(&mut d), b.finish(&mut d));
+}
+
+#[test]
+fn corrections_in_a_row_compose() {
+    let a = Correction {
+        first_node: 2,
+        new_from_old: vec![Pose2::new(1.0, 0.0, 0.0), Pose2::new(1.0, 0.0, 0.1)],
+    };
+    let b = Correction {
+        first_node: 3,
+        new_from_old: vec![Pose2::new(0.0, 2.0, 0.0), Pose2::new(0.0, 2.0, 0.2)],
+    };
+    let c = merge_corrections(Some(a.clone()), Some(b.clone())).unwrap();
+    assert_eq!(c.first_node, 2);
+    assert_eq!(c.new_from_old.len(), 3);
+    assert_eq!(c.new_from_old[0], a.new_from_old[0]);
+    assert_eq!(
+        c.new_from_old[1],
+        b.new_from_old[0].compose(&a.new_from_old[1])
+    );
+    assert_eq!(c.new_from_old[2], b.new_from_old[1]);
+    assert_eq!(merge_corrections(None, Some(b.clone())), Some(b));
+}
+
+#[test]
+fn every_key_is_checked() {
+    let ok = LoopParams::default();
+    assert_eq!(ok.invalid_key(), None);
+    let bad = [
+        LoopParams {
+            node_scans: 0,
+            ..ok.clone()
+        },
+        LoopParams {
+            node_keep_every: 0,
+            ..ok.clone()
+        },
+        LoopParams {
+            search_step_m: 0.0,
+            ..ok.clone()
+        },
+        LoopParams {
+            loop_sigma_m: f64::NAN,
+            ..ok.clone()
+        },
+        LoopParams {
+            min_inlier_share: 1.5,
+            ..ok.clone()
+        },
+    ];
+    for b in bad {
+        assert!(b.invalid_key().is_some(), "{b:?}");
+    }
+}
