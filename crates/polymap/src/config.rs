@@ -71,6 +71,7 @@ impl Config {
                 merge_margin_m: f64::INFINITY,
                 also_start_at_anchor: false,
                 weak_direction_velocity: 0.0,
+                recover_below_inlier_share: 0.0,
                 ..d.mapper
             },
             loops: LoopParams {
@@ -98,7 +99,7 @@ impl Config {
             &self.merge,
             &self.mapper,
         );
-        let checks: [(&str, bool); 17] = [
+        let checks: [(&str, bool); 18] = [
             (
                 "extract.tolerance_m",
                 e.tolerance_m.is_finite() && e.tolerance_m > 0.0,
@@ -149,6 +150,10 @@ impl Config {
                 p.grid_cell_m.is_finite() && (0.05..=100.0).contains(&p.grid_cell_m),
             ),
             ("mapper.merge_margin_m", p.merge_margin_m >= 0.0),
+            (
+                "mapper.recover_below_inlier_share",
+                (0.0..=1.0).contains(&p.recover_below_inlier_share),
+            ),
         ];
         match checks.iter().find(|(_, ok)| !ok) {
             Some((key, _)) => Err(format!("{key} is out of range")),

@@ -21,7 +21,7 @@
 //!   older end on ([`graph::optimize`]; loop edges carry Cauchy weights). The mapper then moves
 //!   every map segment and pose by the correction of the node it was born in.
 
-mod field;
+pub(crate) mod field;
 pub mod graph;
 
 use std::collections::VecDeque;

@@ -19,6 +19,7 @@ use crate::config::Config;
 use crate::directions::main_directions;
 use crate::extract::extract_segments;
 use crate::geometry::{Pose2, Segment, Vec2};
+use crate::loops::field::ScoreField;
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics};
 use crate::map::{GlobalMap, MapSegment};
 use crate::polyline::group_polylines;
@@ -61,6 +62,12 @@ pub struct MapperParams {
     /// Soft inlier points by which another start must beat the first (the anchor, "no
     /// motion", when it is a start) to be chosen.
     pub start_score_margin: f64,
+    /// When ICP's inliers are fewer than this share of the scan's (thinned) points (the scan
+    /// fits nowhere near the guess: the robot turned during a gap in the log), poses over the
+    /// whole circle and within 1 m of the anchor are scored, ICP runs from the best three, and
+    /// the best result is kept if it has at least twice the inliers and twice this share (0
+    /// turns this off). Not with the odometry prior, whose guess carries the turn.
+    pub recover_below_inlier_share: f64,
 }
 
 impl Default for MapperParams {
@@ -73,6 +80,7 @@ impl Default for MapperParams {
             grid_cell_m: 0.5,
             icp_from_best_start_only: true,
             start_score_margin: 1.0,
+            recover_below_inlier_share: 0.15,
         }
     }
 }
@@ -321,6 +329,69 @@ impl Mapper {
         }
     }
 
+    /// ICP from the best poses of a search over the whole circle and a grid of positions
+    /// around the anchor, scored on a raster of the map near it; the result with the most
+    /// inliers. `None` when there is no map near.
+    fn recover(
+        &self,
+        points: &[Vec2],
+        anchor: Pose2,
+        run: &impl Fn(Pose2) -> AlignResult,
+    ) -> Option<AlignResult> {
+        let reach = Vec2::splat(RECOVER_REACH_M);
+        let near: Vec<Segment> = self
+            .map
+            .query(anchor.translation() - reach, anchor.translation() + reach)
+            .iter()
+            .filter_map(|id| self.map.get(*id))
+            .map(|s| s.segment)
+            .collect();
+        if near.is_empty() {
+            return None;
+        }
+        let params = &self.config.align;
+        let field = ScoreField::new(&near, params.rotation_search_sigma_m, 0.1);
+        let sample = score_sample(points, params);
+        let steps_t = (RECOVER_TRANSLATION_M / RECOVER_STEP_M).round() as i32;
+        let steps_r = (180.0 / params.rotation_search_step_deg).round() as i32;
+        let mut scored: Vec<(f64, Pose2)> = Vec::new();
+        for ir in -steps_r..steps_r {
+            let theta =
+                anchor.theta_rad + (ir as f64 * params.rotation_search_step_deg).to_radians();
+            for ix in -steps_t..=steps_t {
+                for iy in -steps_t..=steps_t {
+                    let start = Pose2::new(
+                        anchor.x_m + ix as f64 * RECOVER_STEP_M,
+                        anchor.y_m + iy as f64 * RECOVER_STEP_M,
+                        theta,
+                    );
+                    scored.push((field.score(&sample, &start), start));
+                }
+            }
+        }
+        scored.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let mut tried: Vec<Pose2> = Vec::new();
+        let mut best: Option<AlignResult> = None;
+        for (_, start) in scored {
+            if tried.len() >= 3 {
+                break;
+            }
+            let apart = |p: &Pose2| {
+                let d = p.between(&start);
+                d.translation().length() > 0.3 || d.theta_rad.abs() > 5f64.to_radians()
+            };
+            if !tried.iter().all(apart) {
+                continue;
+            }
+            tried.push(start);
+            let r = run(start);
+            if best.is_none_or(|b| better(&r, &b)) {
+                best = Some(r);
+            }
+        }
+        best
+    }
+
     /// Moves every map segment, scan pose and the motion state by the correction of the node
     /// it was born in (segments merged later than their node's end move with the node of
     /// their last merge).
@@ -455,10 +526,28 @@ impl Mapper {
             let margin = self.config.mapper.start_score_margin;
             starts = vec![best_scoring(&starts, &points, &self.map, params, margin)];
         }
-        starts
+        let result = starts
             .into_iter()
             .map(run)
-            .reduce(|best, r| if better(&r, &best) { r } else { best })
+            .reduce(|best, r| if better(&r, &best) { r } else { best })?;
+        // With odometry the guess already carries the turn; a poor fit after a gap then
+        // means stale odometry, which the next increment makes good (a recovery would turn
+        // the pose and the increment would turn it again).
+        let share = self.config.mapper.recover_below_inlier_share;
+        if (result.inliers as f64) >= share * points.len() as f64
+            || self.config.mapper.motion_prior == MotionPrior::Odometry
+        {
+            return Some(result);
+        }
+        let recovered = self.recover(&points, anchor, &run)?;
+        // Kept only when it fits well where the guess fitted badly: a turned scan that is
+        // merely less bad is likelier a coincidence of the search.
+        let fits_well = recovered.inliers as f64 >= 2.0 * share * points.len() as f64;
+        Some(if fits_well && recovered.inliers >= 2 * result.inliers {
+            recovered
+        } else {
+            result
+        })
     }
 }
 
@@ -482,6 +571,13 @@ fn best_scoring(
     }
     best.1
 }
+
+/// The recovery search looks at map segments within this distance of the anchor, metres...
+const RECOVER_REACH_M: f64 = 15.0;
+/// ...at positions within this distance of it (each axis), metres...
+const RECOVER_TRANSLATION_M: f64 = 1.0;
+/// ...in steps of this, metres.
+const RECOVER_STEP_M: f64 = 0.25;
 
 /// True when `a` explains the scan better than `b`: more inliers, then a lower residual.
 fn better(a: &AlignResult, b: &AlignResult) -> bool {

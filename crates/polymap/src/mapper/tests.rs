@@ -130,3 +130,33 @@ fn blind_scans_after_the_first_stay_put() {
         );
     }
 }
+
+/// After a gap in the log the robot has turned 70° in place, far beyond the rotation search:
+/// the scan fits nowhere near the guess, and the whole-circle search puts it back.
+#[test]
+fn a_turn_during_a_gap_is_recovered() {
+    let walls = room();
+    let run = |config: Config| {
+        let mut mapper = Mapper::new(config);
+        let mut headings: Vec<f64> = (0..=24).map(|i| 5.0 * i as f64).collect();
+        headings.extend((0..24).rev().map(|i| 5.0 * i as f64));
+        let mut t = 0.0;
+        for h in headings {
+            mapper.push(&scan_from(&walls, &Pose2::new(4.0, 0.0, h.to_radians()), t));
+            t += 0.1;
+        }
+        let truth = Pose2::new(4.0, 0.0, 70f64.to_radians());
+        let u = mapper.push(&scan_from(&walls, &truth, t + 3.0));
+        (u.map_from_robot.theta_rad - truth.theta_rad)
+            .to_degrees()
+            .abs()
+    };
+    let recovered = run(Config::default());
+    assert!(recovered < 1.0, "{recovered}° off");
+    let mut off = Config::default();
+    off.mapper.recover_below_inlier_share = 0.0;
+    assert!(
+        run(off) > 10.0,
+        "the test needs a turn the normal search misses"
+    );
+}
