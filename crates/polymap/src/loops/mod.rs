@@ -11,15 +11,23 @@
 //! - Consecutive nodes are joined by a **sequential edge**: the mapper's relative pose.
 //! - When a node is complete, older nodes (at least `min_node_gap` nodes back) whose pose lies
 //!   within `search_radius_m` are **candidates**. The node's points are aligned by ICP to the
-//!   candidate's submap (with its neighbours'), from the relative pose the graph predicts and,
-//!   failing that, from the best of a grid of starts within `search_translation_m` and
-//!   `search_rotation_deg`. A match is kept only when enough points found a wall, most of those
-//!   fit it within ICP's robust scale, ICP left no direction unobservable, and no other
-//!   distinct start explains the points nearly as well: a **loop edge**.
-//! - A loop edge that disagrees with the graph by more than `optimize_min_error_m` (or
+//!   candidate's submap (with its neighbours'), from the relative pose the graph predicts; when
+//!   that fails or moves more than 0.3 m, a grid of starts within `search_translation_m` and
+//!   `search_rotation_deg` is scored on a raster of the submap and ICP runs from the best start
+//!   of each of the three best distinct peaks. A match is kept only when enough points found a
+//!   wall (`min_matched_share`), most of those fit it within ICP's robust scale
+//!   (`min_inlier_share`), ICP left no direction unobservable (a corridor), and no result from
+//!   another peak has `max_ambiguity` of its inliers: a **loop edge**.
+//! - A loop edge that disagrees with the graph by more than `confirm_above_m` (or
+//!   `confirm_above_deg`) is held until a second one, within `confirm_within_nodes` nodes,
+//!   agrees with it on where the node belongs: a false match rarely repeats consistently. Off by
+//!   default (`confirm_within_nodes = 0`): on the benchmark logs it cost more true closures
+//!   than it caught false ones (none were seen).
+//! - A loop edge in the graph that disagrees with it by more than `optimize_min_error_m` (or
 //!   `optimize_min_error_deg`) triggers a least-squares solution of the graph from the loop's
-//!   older end on ([`graph::optimize`]; loop edges carry Cauchy weights). The mapper then moves
-//!   every map segment and pose by the correction of the node it was born in.
+//!   older end on ([`graph::optimize`]; loop edges carry Cauchy weights); node 0, the map
+//!   frame, never moves. The mapper then moves every map segment and pose by the correction of
+//!   the node it was born in.
 
 pub(crate) mod field;
 pub mod graph;
@@ -91,6 +99,14 @@ pub struct LoopParams {
     /// ...and rotation, degrees.
     pub loop_sigma_deg: f64,
     /// A loop edge this far (metres)...
+    pub confirm_above_m: f64,
+    /// ...or this far (degrees) from the graph's prediction is held until another loop edge
+    /// within `confirm_within_nodes` nodes agrees with it to within the same distances.
+    pub confirm_above_deg: f64,
+    /// How long a held loop edge waits for one that agrees, nodes (0, the default: edges are
+    /// never held).
+    pub confirm_within_nodes: usize,
+    /// A loop edge this far (metres)...
     pub optimize_min_error_m: f64,
     /// ...or this far (degrees) from the graph's prediction triggers optimisation.
     pub optimize_min_error_deg: f64,
@@ -118,11 +134,14 @@ impl Default for LoopParams {
             search_rotation_step_deg: 2.0,
             min_matched_share: 0.5,
             min_inlier_share: 0.6,
-            max_ambiguity: 0.8,
+            max_ambiguity: 0.9,
             sequential_sigma_m: 0.05,
             sequential_sigma_deg: 0.5,
             loop_sigma_m: 0.05,
             loop_sigma_deg: 0.5,
+            confirm_above_m: 0.3,
+            confirm_above_deg: 2.0,
+            confirm_within_nodes: 0,
             optimize_min_error_m: 0.1,
             optimize_min_error_deg: 1.0,
             max_iterations: 10,
@@ -204,7 +223,14 @@ impl LoopParams {
             ),
             ("loops.max_iterations", self.max_iterations <= 1000),
         ];
-        checks.iter().find(|(_, ok)| !ok).map(|(k, _)| *k)
+        if let Some(k) = checks.iter().find(|(_, ok)| !ok).map(|(k, _)| *k) {
+            return Some(k);
+        }
+        // The grid search holds every start's score: bounded.
+        let steps_t = (self.search_translation_m / self.search_step_m).floor() + 0.5;
+        let steps_r = (self.search_rotation_deg / self.search_rotation_step_deg).floor() + 0.5;
+        let starts = (2.0 * steps_t).powi(2) * 2.0 * steps_r;
+        (starts > MAX_SEARCH_STARTS).then_some("loops.search_step_m")
     }
 }
 
@@ -215,9 +241,12 @@ pub struct LoopDiagnostics {
     pub candidates: usize,
     /// Candidates the predicted pose did not explain, matched by a grid search.
     pub searches: usize,
-    /// Loop edges added.
+    /// Loop edges added to the graph.
     pub accepted: usize,
-    /// Nodes moved by an optimisation (0: none ran).
+    /// Loop edges held, waiting for a second that agrees (see `confirm_above_m`).
+    pub held: usize,
+    /// Nodes moved by the corrections taken in (optimised, and the newer ones that ride along;
+    /// 0: none).
     pub optimized_nodes: usize,
     /// The largest translation of a node by the optimisation, metres.
     pub largest_correction_m: f64,
@@ -317,6 +346,7 @@ impl LoopCloser {
             poses: Vec::new(),
             edges: Vec::new(),
             last_closed: None,
+            held: Vec::new(),
         };
         LoopCloser {
             params,
@@ -453,6 +483,7 @@ impl LoopCloser {
         diagnostics.candidates += d.candidates;
         diagnostics.searches += d.searches;
         diagnostics.accepted += d.accepted;
+        diagnostics.held = d.held;
         diagnostics.match_s += d.match_s;
         diagnostics.optimize_s += d.optimize_s;
         self.loop_edges += d.accepted;
@@ -557,6 +588,8 @@ struct Graph {
     edges: Vec<Edge>,
     /// The last node that got a loop edge.
     last_closed: Option<usize>,
+    /// Loop edges that would bend the graph a lot, waiting for a second that agrees.
+    held: Vec<Edge>,
 }
 
 impl Graph {
@@ -585,14 +618,19 @@ impl Graph {
         let candidates = self.candidates(k);
         let mut optimize_from: Option<usize> = None;
         let clock = std::time::Instant::now();
+        let p = &self.params;
+        let (confirm_m, confirm_rad) = (p.confirm_above_m, p.confirm_above_deg.to_radians());
+        let (optimize_m, optimize_rad) = (
+            p.optimize_min_error_m,
+            p.optimize_min_error_deg.to_radians(),
+        );
+        let mut found: Vec<Edge> = Vec::new();
         for c in &candidates {
             out.diagnostics.candidates += 1;
             let Some(measured) = self.match_nodes(k, c, &mut out.diagnostics) else {
                 continue;
             };
-            out.diagnostics.accepted += 1;
-            self.last_closed = Some(k);
-            self.edges.push(Edge {
+            found.push(Edge {
                 from: c.j,
                 to: k,
                 measured,
@@ -600,17 +638,66 @@ impl Graph {
                 sigma_rad: self.params.loop_sigma_deg.to_radians(),
                 robust: true,
             });
-            let off = c.predicted.between(&measured);
-            if off.translation().length() > self.params.optimize_min_error_m
-                || off.theta_rad.abs() > self.params.optimize_min_error_deg.to_radians()
+        }
+        // An edge that would bend the graph a lot waits for a second one that agrees with it
+        // (a false match rarely repeats consistently); the others go in at once.
+        let off =
+            |poses: &[Pose2], e: &Edge| poses[e.from].between(&poses[e.to]).between(&e.measured);
+        let beyond =
+            |d: &Pose2, m: f64, rad: f64| d.translation().length() > m || d.theta_rad.abs() > rad;
+        self.held
+            .retain(|e| e.to + self.params.confirm_within_nodes >= k);
+        let mut take: Vec<Edge> = Vec::new();
+        for e in found {
+            if self.params.confirm_within_nodes == 0
+                || !beyond(&off(&self.poses, &e), confirm_m, confirm_rad)
             {
-                optimize_from = Some(optimize_from.map_or(c.j, |o: usize| o.min(c.j)));
+                take.push(e);
+            } else {
+                self.held.push(e);
             }
         }
+        let agree = |poses: &[Pose2], a: &Edge, b: &Edge| {
+            // Where `a` puts b's node (moving it with a's node) against where `b` puts it.
+            let a_moves = poses[a.from]
+                .compose(&a.measured)
+                .compose(&poses[a.to].inverse());
+            let by_a = a_moves.compose(&poses[b.to]);
+            let by_b = poses[b.from].compose(&b.measured);
+            !beyond(&by_a.between(&by_b), confirm_m, confirm_rad)
+        };
+        let confirmed: Vec<bool> = (0..self.held.len())
+            .map(|i| {
+                (0..self.held.len())
+                    .any(|j| i != j && agree(&self.poses, &self.held[i], &self.held[j]))
+            })
+            .collect();
+        let mut i = 0;
+        self.held.retain(|e| {
+            let keep = !confirmed[i];
+            if !keep {
+                take.push(*e);
+            }
+            i += 1;
+            keep
+        });
+        out.diagnostics.held = self.held.len();
+        for e in take {
+            if beyond(&off(&self.poses, &e), optimize_m, optimize_rad) {
+                optimize_from = Some(optimize_from.map_or(e.from, |o: usize| o.min(e.from)));
+            }
+            out.diagnostics.accepted += 1;
+            self.last_closed = Some(k);
+            self.edges.push(e);
+        }
         out.diagnostics.match_s = clock.elapsed().as_secs_f64();
-        let Some(first) = optimize_from else {
+        // Node 0 holds the map frame (the first scan's pose): it never moves.
+        let Some(first) = optimize_from.map(|f| f.max(1)) else {
             return out;
         };
+        if first > k {
+            return out;
+        }
         let clock = std::time::Instant::now();
         graph::optimize(
             &mut self.poses,
@@ -735,20 +822,26 @@ impl Graph {
             }
         }
         scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-        // ICP from the best starts that are apart from each other.
-        let mut results: Vec<AlignResult> = vec![direct];
-        for (_, start) in scored.iter().take(8) {
-            if results.len() >= 4 {
+        // ICP from the best starts of distinct peaks (each more than a search step and a
+        // rotation step, plus the score's reach, from those before): a rival place is tried
+        // too, not only the best place's neighbourhood.
+        let mut starts: Vec<Pose2> = vec![predicted];
+        let apart_m = p.search_step_m + self.align.rotation_search_sigma_m;
+        let apart_deg = 2.0 * p.search_rotation_step_deg;
+        for (_, start) in &scored {
+            if starts.len() > SEARCH_PEAKS {
                 break;
             }
-            if results
-                .iter()
-                .any(|r| close(&r.map_from_robot, start, 0.2, 2.0))
-            {
-                continue;
+            if starts.iter().all(|s| !close(s, start, apart_m, apart_deg)) {
+                starts.push(*start);
             }
-            results.push(align_points(points, &index, *start, *start, &self.align));
         }
+        let mut results: Vec<AlignResult> = vec![direct];
+        results.extend(
+            starts[1..]
+                .iter()
+                .map(|start| align_points(points, &index, *start, *start, &self.align)),
+        );
         let best = *results.iter().max_by(|a, b| {
             (a.inliers, -a.residual_rms_m)
                 .partial_cmp(&(b.inliers, -b.residual_rms_m))
@@ -766,6 +859,12 @@ impl Graph {
         (rival as f64 <= p.max_ambiguity * best.inliers as f64).then_some(best.map_from_robot)
     }
 }
+
+/// Most starts of the grid search (its translation and rotation ranges over their steps).
+const MAX_SEARCH_STARTS: f64 = 200_000.0;
+
+/// ICP runs from the best starts of this many distinct peaks of the grid search.
+const SEARCH_PEAKS: usize = 3;
 
 /// A node with fewer points (after thinning) is not matched.
 const MIN_NODE_POINTS: usize = 20;

@@ -160,8 +160,8 @@ fn returning_to_mapped_ground_removes_most_of_the_drift() {
     let truth = lap(5);
     let walls = ring();
     let before = worst(&truth, &drifted(&truth));
-    let (after, closer) = run(&truth, &walls, params());
-    let after = worst(&truth, &after);
+    let (after_poses, closer) = run(&truth, &walls, params());
+    let after = worst(&truth, &after_poses);
     assert!(before > 0.5, "the drift is meant to be large: {before}");
     assert!(closer.loop_edges() > 0);
     // The end of the lap is where the drift was largest; the loop edge ties it to the start.
@@ -169,6 +169,26 @@ fn returning_to_mapped_ground_removes_most_of_the_drift() {
         .between(truth.last().unwrap())
         .between(&drifted(&truth)[0].between(drifted(&truth).last().unwrap()));
     assert!(end_before.translation().length() > 0.5);
+    assert!(
+        after < 0.5 * before,
+        "worst error {before:.3} m before, {after:.3} m after"
+    );
+}
+
+#[test]
+fn with_confirmation_the_loop_still_closes() {
+    let truth = lap(5);
+    let before = worst(&truth, &drifted(&truth));
+    let (poses, closer) = run(
+        &truth,
+        &ring(),
+        LoopParams {
+            confirm_within_nodes: 10,
+            ..params()
+        },
+    );
+    assert!(closer.loop_edges() >= 2);
+    let after = worst(&truth, &poses);
     assert!(
         after < 0.5 * before,
         "worst error {before:.3} m before, {after:.3} m after"

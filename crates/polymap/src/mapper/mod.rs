@@ -216,8 +216,8 @@ impl Mapper {
         &self.trajectory
     }
 
-    /// Applies loop closure's last pending match (see [`crate::loops`]); call it after the last
-    /// scan, before reading [`Mapper::trajectory`] and the map for good. Pushing more scans
+    /// Takes in every outcome of loop closure still pending (see [`crate::loops`]); call it
+    /// after the last scan, before reading [`Mapper::trajectory`] and the map for good. Pushing more scans
     /// afterwards is fine.
     pub fn finish(&mut self) -> LoopDiagnostics {
         let mut diagnostics = LoopDiagnostics::default();
@@ -539,7 +539,9 @@ impl Mapper {
         {
             return Some(result);
         }
-        let recovered = self.recover(&points, anchor, &run)?;
+        let Some(recovered) = self.recover(&points, anchor, &run) else {
+            return Some(result);
+        };
         // Kept only when it fits well where the guess fitted badly: a turned scan that is
         // merely less bad is likelier a coincidence of the search.
         let fits_well = recovered.inliers as f64 >= 2.0 * share * points.len() as f64;

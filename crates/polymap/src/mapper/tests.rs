@@ -160,3 +160,46 @@ fn a_turn_during_a_gap_is_recovered() {
         "the test needs a turn the normal search misses"
     );
 }
+
+/// A scan that fits badly (mostly unmapped clutter) where no map lies within the recovery's
+/// reach keeps its ICP result; it once fell back to the anchor.
+#[test]
+fn a_bad_fit_far_from_the_map_keeps_its_icp_result() {
+    let far = vec![
+        seg(-25.0, -25.0, 25.0, -25.0),
+        seg(25.0, -25.0, 25.0, 25.0),
+        seg(25.0, 25.0, -25.0, 25.0),
+        seg(-25.0, 25.0, -25.0, -25.0),
+    ];
+    // A ring of short walls 3 m around the robot with a 10° gap ahead, towards the far wall.
+    let mut world = far.clone();
+    for i in 0..72 {
+        let (a0, a1) = (
+            (i as f64 * 5.0).to_radians(),
+            ((i + 1) as f64 * 5.0).to_radians(),
+        );
+        let mid = (i as f64 * 5.0 + 182.5).rem_euclid(360.0) - 180.0;
+        if mid.abs() < 5.0 {
+            continue;
+        }
+        world.push(seg(
+            0.3 + 3.0 * a0.cos(),
+            3.0 * a0.sin(),
+            0.3 + 3.0 * a1.cos(),
+            3.0 * a1.sin(),
+        ));
+    }
+    let mut mapper = Mapper::new(Config::default());
+    mapper.push(&scan_from(&far, &Pose2::IDENTITY, 0.0));
+    let u = mapper.push(&scan_from(&world, &Pose2::new(0.3, 0.0, 0.0), 0.1));
+    let a = u.diagnostics.align.expect("aligned");
+    assert!(
+        (a.inliers as f64) < 0.15 * u.diagnostics.points as f64,
+        "the fit is meant to be bad"
+    );
+    assert!(
+        (u.map_from_robot.x_m - 0.3).abs() < 0.05,
+        "{:?}",
+        u.map_from_robot
+    );
+}
