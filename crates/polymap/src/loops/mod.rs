@@ -14,7 +14,7 @@
 //!   candidate's submap (with its neighbours'), from the relative pose the graph predicts; when
 //!   that fails or moves more than 0.3 m, a grid of starts within `search_translation_m` and
 //!   `search_rotation_deg` is scored on a raster of the submap and ICP runs from the best start
-//!   of each of the three best distinct peaks. A match is kept only when enough points found a
+//!   of the best peak and of its strongest distinct rival. A match is kept only when enough points found a
 //!   wall (`min_matched_share`), most of those fit it within ICP's robust scale
 //!   (`min_inlier_share`), ICP left no direction unobservable (a corridor), and no result from
 //!   another peak has `max_ambiguity` of its inliers: a **loop edge**.
@@ -823,13 +823,20 @@ impl Graph {
         }
         scored.sort_by(|a, b| b.0.total_cmp(&a.0));
         // ICP from the best starts of distinct peaks (each more than a search step and a
-        // rotation step, plus the score's reach, from those before): a rival place is tried
-        // too, not only the best place's neighbourhood.
+        // rotation step, plus the score's reach, from those before) that score at least
+        // `RIVAL_SCORE_SHARE` of the best: a rival place is tried too, not only the best
+        // place's neighbourhood.
         let mut starts: Vec<Pose2> = vec![predicted];
         let apart_m = p.search_step_m + self.align.rotation_search_sigma_m;
         let apart_deg = 2.0 * p.search_rotation_step_deg;
-        for (_, start) in &scored {
-            if starts.len() > SEARCH_PEAKS {
+        let top = scored.first().map_or(0.0, |s| s.0);
+        // Too few points near the submap anywhere in the search for half of them to match.
+        if top < MIN_TOP_SCORE_SHARE * p.min_matched_share * sample.len() as f64 {
+            return None;
+        }
+        for (score, start) in &scored {
+            // A peak far below the best cannot come near its inliers.
+            if starts.len() > SEARCH_PEAKS || *score < RIVAL_SCORE_SHARE * top {
                 break;
             }
             if starts.iter().all(|s| !close(s, start, apart_m, apart_deg)) {
@@ -863,8 +870,16 @@ impl Graph {
 /// Most starts of the grid search (its translation and rotation ranges over their steps).
 const MAX_SEARCH_STARTS: f64 = 200_000.0;
 
-/// ICP runs from the best starts of this many distinct peaks of the grid search.
+/// ICP runs from the best starts of this many distinct peaks of the grid search (the best and
+/// its strongest rival).
 const SEARCH_PEAKS: usize = 3;
+
+/// The grid search gives up when its best soft score is below this share of
+/// `min_matched_share` of the sample (a point within ICP's final gate scores at least 0.3).
+const MIN_TOP_SCORE_SHARE: f64 = 0.3;
+
+/// Peaks of the grid search scoring below this share of the best are not tried.
+const RIVAL_SCORE_SHARE: f64 = 0.75;
 
 /// A node with fewer points (after thinning) is not matched.
 const MIN_NODE_POINTS: usize = 20;
