@@ -42,7 +42,7 @@ use serde::{Deserialize, Serialize};
 use crate::align::{AlignParams, AlignResult, align_points, score_sample};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::{GlobalMap, MapSegment};
-use field::ScoreField;
+use field::{PoseGrid, ScoreField, distinct_peaks};
 pub use graph::Edge;
 
 /// Parameters of loop closure.
@@ -804,48 +804,39 @@ impl Graph {
         // Otherwise: the best starts of a grid around the prediction, each refined by ICP.
         diagnostics.searches += 1;
         let sample = score_sample(points, &self.align);
-        let steps_t = (p.search_translation_m / p.search_step_m).floor() as i32;
         let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
         let field = ScoreField::new(&c.target, self.align.rotation_search_sigma_m, SCORE_CELL_M);
-        let mut scored: Vec<(f64, Pose2)> = Vec::new();
-        for ir in -steps_r..=steps_r {
-            let theta = predicted.theta_rad + (ir as f64 * p.search_rotation_step_deg).to_radians();
-            for ix in -steps_t..=steps_t {
-                for iy in -steps_t..=steps_t {
-                    let start = Pose2::new(
-                        predicted.x_m + ix as f64 * p.search_step_m,
-                        predicted.y_m + iy as f64 * p.search_step_m,
-                        theta,
-                    );
-                    scored.push((field.score(&sample, &start), start));
-                }
-            }
-        }
-        scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-        // ICP from the best starts of distinct peaks (each more than a search step and a
-        // rotation step, plus the score's reach, from those before) that score at least
-        // `RIVAL_SCORE_SHARE` of the best: a rival place is tried too, not only the best
-        // place's neighbourhood.
-        let mut starts: Vec<Pose2> = vec![predicted];
-        let apart_m = p.search_step_m + self.align.rotation_search_sigma_m;
-        let apart_deg = 2.0 * p.search_rotation_step_deg;
+        let scored = field.scored_grid(
+            &sample,
+            &PoseGrid {
+                center: predicted,
+                steps_xy: (p.search_translation_m / p.search_step_m).floor() as i32,
+                step_m: p.search_step_m,
+                rotations: -steps_r..steps_r + 1,
+                step_rad: p.search_rotation_step_deg.to_radians(),
+            },
+        );
         let top = scored.first().map_or(0.0, |s| s.0);
         // Too few points near the submap anywhere in the search for half of them to match.
         if top < MIN_TOP_SCORE_SHARE * p.min_matched_share * sample.len() as f64 {
             return None;
         }
-        for (score, start) in &scored {
-            // A peak far below the best cannot come near its inliers.
-            if starts.len() > SEARCH_PEAKS || *score < RIVAL_SCORE_SHARE * top {
-                break;
-            }
-            if starts.iter().all(|s| !close(s, start, apart_m, apart_deg)) {
-                starts.push(*start);
-            }
-        }
+        // ICP from the best starts of distinct peaks (each more than a search step and the
+        // score's reach, or two rotation steps, from those before and from the prediction)
+        // that score at least `RIVAL_SCORE_SHARE` of the best (a peak far below it cannot
+        // come near its inliers): a rival place is tried too, not only the best place's
+        // neighbourhood.
+        let starts = distinct_peaks(
+            &scored,
+            &[predicted],
+            p.search_step_m + self.align.rotation_search_sigma_m,
+            (2.0 * p.search_rotation_step_deg).to_radians(),
+            SEARCH_PEAKS,
+            RIVAL_SCORE_SHARE * top,
+        );
         let mut results: Vec<AlignResult> = vec![direct];
         results.extend(
-            starts[1..]
+            starts
                 .iter()
                 .map(|start| align_points(points, &index, *start, *start, &self.align)),
         );

@@ -19,7 +19,7 @@ use crate::config::Config;
 use crate::directions::main_directions;
 use crate::extract::extract_segments;
 use crate::geometry::{Pose2, Segment, Vec2};
-use crate::loops::field::ScoreField;
+use crate::loops::field::{PoseGrid, ScoreField, distinct_peaks};
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics};
 use crate::map::{GlobalMap, MapSegment};
 use crate::polyline::group_polylines;
@@ -352,44 +352,21 @@ impl Mapper {
         let params = &self.config.align;
         let field = ScoreField::new(&near, params.rotation_search_sigma_m, 0.1);
         let sample = score_sample(points, params);
-        let steps_t = (RECOVER_TRANSLATION_M / RECOVER_STEP_M).round() as i32;
         let steps_r = (180.0 / params.rotation_search_step_deg).round() as i32;
-        let mut scored: Vec<(f64, Pose2)> = Vec::new();
-        for ir in -steps_r..steps_r {
-            let theta =
-                anchor.theta_rad + (ir as f64 * params.rotation_search_step_deg).to_radians();
-            for ix in -steps_t..=steps_t {
-                for iy in -steps_t..=steps_t {
-                    let start = Pose2::new(
-                        anchor.x_m + ix as f64 * RECOVER_STEP_M,
-                        anchor.y_m + iy as f64 * RECOVER_STEP_M,
-                        theta,
-                    );
-                    scored.push((field.score(&sample, &start), start));
-                }
-            }
-        }
-        scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-        let mut tried: Vec<Pose2> = Vec::new();
-        let mut best: Option<AlignResult> = None;
-        for (_, start) in scored {
-            if tried.len() >= 3 {
-                break;
-            }
-            let apart = |p: &Pose2| {
-                let d = p.between(&start);
-                d.translation().length() > 0.3 || d.theta_rad.abs() > 5f64.to_radians()
-            };
-            if !tried.iter().all(apart) {
-                continue;
-            }
-            tried.push(start);
-            let r = run(start);
-            if best.is_none_or(|b| better(&r, &b)) {
-                best = Some(r);
-            }
-        }
-        best
+        let scored = field.scored_grid(
+            &sample,
+            &PoseGrid {
+                center: anchor,
+                steps_xy: (RECOVER_TRANSLATION_M / RECOVER_STEP_M).round() as i32,
+                step_m: RECOVER_STEP_M,
+                rotations: -steps_r..steps_r,
+                step_rad: params.rotation_search_step_deg.to_radians(),
+            },
+        );
+        distinct_peaks(&scored, &[], 0.3, 5f64.to_radians(), 3, f64::NEG_INFINITY)
+            .into_iter()
+            .map(run)
+            .reduce(|best, r| if better(&r, &best) { r } else { best })
     }
 
     /// Moves every map segment, scan pose and the motion state by the correction of the node
