@@ -368,9 +368,7 @@ impl Run {
         });
         self.last = update.diagnostics;
     }
-}
 
-impl Run {
     /// Puts the final poses (with loop closure's corrections, which may have moved poses after
     /// they were recorded) into the trajectory, and the SVG's points into the map frame.
     fn finish(&mut self) {

@@ -148,23 +148,16 @@ pub fn optimize(
             }
             let wr_v = [w[0] * r[0], w[1] * r[1], w[2] * r[2]];
             let (ia, ib) = (index(e.from), index(e.to));
-            if let Some(a) = ia {
-                let h = jt_w_j(&ja, &w, &ja);
-                diag[a]
-                    .iter_mut()
-                    .flatten()
-                    .zip(h.iter().flatten())
-                    .for_each(|(x, y)| *x += y);
-                add(&mut g[a], &mul_t(&ja, &wr_v));
-            }
-            if let Some(b) = ib {
-                let h = jt_w_j(&jb, &w, &jb);
-                diag[b]
-                    .iter_mut()
-                    .flatten()
-                    .zip(h.iter().flatten())
-                    .for_each(|(x, y)| *x += y);
-                add(&mut g[b], &mul_t(&jb, &wr_v));
+            for (i, j) in [(ia, &ja), (ib, &jb)] {
+                if let Some(i) = i {
+                    let h = jt_w_j(j, &w, j);
+                    diag[i]
+                        .iter_mut()
+                        .flatten()
+                        .zip(h.iter().flatten())
+                        .for_each(|(x, y)| *x += y);
+                    add(&mut g[i], &mul_t(j, &wr_v));
+                }
             }
             if let (Some(a), Some(b)) = (ia, ib) {
                 off.push((a, b, jt_w_j(&ja, &w, &jb)));

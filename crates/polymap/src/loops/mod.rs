@@ -13,9 +13,10 @@
 //!   within `search_radius_m` are **candidates**. The node's points are aligned by ICP to the
 //!   candidate's submap (with its neighbours'), from the relative pose the graph predicts; when
 //!   that fails or moves more than 0.3 m, a grid of starts within `search_translation_m` and
-//!   `search_rotation_deg` is scored on a raster of the submap and ICP runs from the best start
-//!   of the best peak and of its strongest distinct rival. A match is kept only when enough points found a
-//!   wall (`min_matched_share`), most of those fit it within ICP's robust scale
+//!   `search_rotation_deg` is scored on a raster of the submap (given up when nothing scores)
+//!   and ICP runs from the best start of the best peak and of up to two distinct rival peaks
+//!   scoring at least 75 % of it. A match is kept only when enough points found a wall
+//!   (`min_matched_share`), most of those fit it within ICP's robust scale
 //!   (`min_inlier_share`), ICP left no direction unobservable (a corridor), and no result from
 //!   another peak has `max_ambiguity` of its inliers: a **loop edge**.
 //! - A loop edge that disagrees with the graph by more than `confirm_above_m` (or
@@ -861,8 +862,8 @@ impl Graph {
 /// Most starts of the grid search (its translation and rotation ranges over their steps).
 const MAX_SEARCH_STARTS: f64 = 200_000.0;
 
-/// ICP runs from the best starts of this many distinct peaks of the grid search (the best and
-/// its strongest rival).
+/// ICP runs from the best starts of at most this many distinct peaks of the grid search (the
+/// best and its rivals).
 const SEARCH_PEAKS: usize = 3;
 
 /// The grid search gives up when its best soft score is below this share of

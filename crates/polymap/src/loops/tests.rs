@@ -96,11 +96,32 @@ fn params() -> LoopParams {
     }
 }
 
+/// Hands scan `t`, ray-cast at its true pose, to `closer` at `poses[t]` (with drift).
+fn feed(
+    closer: &mut LoopCloser,
+    walls: &[Segment],
+    truth: &[Pose2],
+    poses: &[Pose2],
+    t: usize,
+    d: &mut LoopDiagnostics,
+) -> Option<Correction> {
+    let prepared = Mapper::prepare(
+        &Config::default(),
+        &scan_from(walls, &truth[t], t as f64 * 0.1),
+    );
+    closer.add_scan(
+        t as u32,
+        poses[t],
+        &prepared.points_in_robot,
+        &prepared.segments_in_robot,
+        d,
+    )
+}
+
 /// Feeds the drifted poses to a loop closer, applying its corrections to them (as the mapper
 /// does); returns the corrected poses and the closer.
 fn run(truth: &[Pose2], walls: &[Segment], params: LoopParams) -> (Vec<Pose2>, LoopCloser) {
-    let config = Config::default();
-    let mut closer = LoopCloser::new(params.clone(), config.align.clone(), 0.5);
+    let mut closer = LoopCloser::new(params.clone(), Config::default().align, 0.5);
     let mut poses = drifted(truth);
     let mut diagnostics = LoopDiagnostics::default();
     let ns = params.node_scans as usize;
@@ -116,15 +137,7 @@ fn run(truth: &[Pose2], walls: &[Segment], params: LoopParams) -> (Vec<Pose2>, L
         }
     };
     for t in 0..truth.len() {
-        let prepared = Mapper::prepare(&config, &scan_from(walls, &truth[t], t as f64 * 0.1));
-        let correction = closer.add_scan(
-            t as u32,
-            poses[t],
-            &prepared.points_in_robot,
-            &prepared.segments_in_robot,
-            &mut diagnostics,
-        );
-        if let Some(c) = correction {
+        if let Some(c) = feed(&mut closer, walls, truth, &poses, t, &mut diagnostics) {
             // Poses not yet handed over move with the newest node.
             let newest = *c.new_from_old.last().unwrap();
             apply(&mut poses, &c, t + 1);
@@ -247,27 +260,19 @@ fn a_featureless_corridor_gives_no_loop_edge() {
 fn a_clone_carries_on_like_the_original() {
     let truth = lap(5);
     let walls = ring();
-    let config = Config::default();
-    let mut a = LoopCloser::new(params(), config.align.clone(), 0.5);
+    let mut a = LoopCloser::new(params(), Config::default().align, 0.5);
     let poses = drifted(&truth);
     let mut d = LoopDiagnostics::default();
-    let feed = |c: &mut LoopCloser, t: usize, d: &mut LoopDiagnostics| {
-        let prepared = Mapper::prepare(&config, &scan_from(&walls, &truth[t], t as f64 * 0.1));
-        c.add_scan(
-            t as u32,
-            poses[t],
-            &prepared.points_in_robot,
-            &prepared.segments_in_robot,
-            d,
-        )
-    };
     let half = truth.len() / 2;
     for t in 0..half {
-        feed(&mut a, t, &mut d);
+        feed(&mut a, &walls, &truth, &poses, t, &mut d);
     }
     let mut b = a.clone();
     for t in half..truth.len() {
-        assert_eq!(feed(&mut a, t, &mut d), feed(&mut b, t, &mut d));
+        assert_eq!(
+            feed(&mut a, &walls, &truth, &poses, t, &mut d),
+            feed(&mut b, &walls, &truth, &poses, t, &mut d)
+        );
     }
     assert_eq!(a.finish(&mut d), b.finish(&mut d));
 }
