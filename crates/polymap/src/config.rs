@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::align::{AlignMethod, AlignParams};
+use crate::align::{AlignMethod, AlignParams, TrackParams};
 use crate::directions::DirectionParams;
 use crate::extract::ExtractParams;
 use crate::loops::LoopParams;
@@ -23,6 +23,8 @@ pub struct Config {
     pub polyline: PolylineParams,
     /// ICP.
     pub align: AlignParams,
+    /// Tracking: the window search and the verdict per scan (an addition).
+    pub tracking: TrackParams,
     /// Main directions.
     pub directions: DirectionParams,
     /// Vertex insertion, pairing, simplification.
@@ -77,6 +79,10 @@ impl Config {
             loops: LoopParams {
                 enabled: false,
                 ..d.loops
+            },
+            tracking: TrackParams {
+                window_search: false,
+                ..d.tracking
             },
             ..d
         }
@@ -157,7 +163,7 @@ impl Config {
         ];
         match checks.iter().find(|(_, ok)| !ok) {
             Some((key, _)) => Err(format!("{key} is out of range")),
-            None => match self.loops.invalid_key() {
+            None => match self.loops.invalid_key().or(self.tracking.invalid_key()) {
                 Some(key) => Err(format!("{key} is out of range")),
                 None => Ok(()),
             },

@@ -17,21 +17,30 @@
 //! information), so in a featureless corridor the along-corridor position stays where the
 //! motion prior put it instead of sliding on noise.
 
+mod correlative;
 mod endpoints;
 mod nearest;
 mod point_to_segment;
+mod raster;
 mod search;
 mod solver;
+mod track;
 
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::grid::NearestCertificate;
+pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
 pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
-pub use search::{fit_score, fit_score_above, rotation_search, score_sample};
+pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
+pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
 pub use solver::Constraint;
+pub use track::{
+    LoosePoints, Reason, TrackParams, Tracking, Verdict, search_window, should_search, verdict,
+    window_search,
+};
 
 /// Which correspondences drive ICP.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -134,6 +143,10 @@ pub struct AlignResult {
     /// Directions (of x, y, rotation combined) the correspondences left unobservable; along
     /// them the pose was put on the anchor. 3 when there were too few correspondences.
     pub weak_directions: u8,
+    /// Map-frame direction, degrees in `[0, 180)`, of the least observed translation when a
+    /// direction was unobservable (along a corridor, its axis); `None` otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weak_direction_deg: Option<f64>,
 }
 
 /// Nearest-segment queries against a set of map segments (map frame).

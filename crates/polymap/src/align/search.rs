@@ -53,7 +53,12 @@ pub fn rotation_search(
 
 /// About `rotation_search_points` of the points, evenly spread, for scoring poses.
 pub fn score_sample(points_in_robot: &[Vec2], params: &AlignParams) -> Vec<Vec2> {
-    let stride = (points_in_robot.len() / params.rotation_search_points.max(1)).max(1);
+    score_sample_n(points_in_robot, params.rotation_search_points)
+}
+
+/// About `n` of the points, evenly spread.
+pub fn score_sample_n(points_in_robot: &[Vec2], n: usize) -> Vec<Vec2> {
+    let stride = (points_in_robot.len() / n.max(1)).max(1);
     points_in_robot.iter().step_by(stride).copied().collect()
 }
 

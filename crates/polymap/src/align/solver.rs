@@ -105,13 +105,14 @@ fn normal_equations(
 }
 
 /// Moves `pose` onto `anchor` along the directions the constraints leave unobservable; returns
-/// how many directions that was.
+/// how many directions that was, and the map-frame direction (degrees, `[0, 180)`) of the
+/// weakest one's translation when there was one with a translational part.
 fn anchor_weak_directions(
     constraints: &[Constraint],
     pose: &mut Pose2,
     anchor: &Pose2,
     params: &AlignParams,
-) -> u8 {
+) -> (u8, Option<f64>) {
     let (h, _) = normal_equations(constraints, pose, params);
     let (values, vectors) = symmetric_eigen(h);
     let to_anchor = DVec3::new(
@@ -121,15 +122,22 @@ fn anchor_weak_directions(
     );
     let mut weak = 0;
     let mut delta = DVec3::ZERO;
+    let mut weakest: Option<(f64, DVec3)> = None;
     for (i, &value) in values.iter().enumerate() {
         if value < params.min_information {
             let v = vectors.col(i);
             delta += v * v.dot(to_anchor);
             weak += 1;
+            if weakest.is_none_or(|(w, _)| value < w) {
+                weakest = Some((value, v));
+            }
         }
     }
     *pose = add(pose, delta);
-    weak
+    let direction = weakest
+        .filter(|(_, v)| v.x.hypot(v.y) > 0.5)
+        .map(|(_, v)| v.y.atan2(v.x).to_degrees().rem_euclid(180.0));
+    (weak, direction)
 }
 
 /// Eigenvalues and eigenvectors (as columns) of a symmetric 3×3 matrix, by cyclic Jacobi
@@ -204,6 +212,7 @@ pub(crate) fn run_icp(
         residual_rms_m: 0.0,
         converged: false,
         weak_directions: 0,
+        weak_direction_deg: None,
     };
     for i in 0..params.max_iterations {
         constraints.clear();
@@ -217,6 +226,7 @@ pub(crate) fn run_icp(
             residual_rms_m: s.rms_m,
             converged: false,
             weak_directions: 0,
+            weak_direction_deg: None,
         };
         if constraints.len() < params.min_correspondences {
             result.map_from_robot = anchor;
@@ -243,8 +253,10 @@ pub(crate) fn run_icp(
             break;
         }
     }
-    result.weak_directions =
+    let (weak, direction) =
         anchor_weak_directions(&constraints, &mut result.map_from_robot, &anchor, params);
+    result.weak_directions = weak;
+    result.weak_direction_deg = direction;
     result
 }
 

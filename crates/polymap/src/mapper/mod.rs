@@ -12,8 +12,9 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, align_endpoints, align_points, fit_score,
-    fit_score_above, rotation_search, score_sample, thin_points,
+    AlignMethod, AlignParams, AlignResult, LoosePoints, Tracking, Verdict, align_endpoints,
+    align_points, fit_score, fit_score_above, rotation_search, score_sample, search_window,
+    should_search, thin_points, verdict, window_search,
 };
 use crate::config::Config;
 use crate::directions::main_directions;
@@ -104,6 +105,8 @@ pub struct ScanDiagnostics {
     pub stage_s: StageSeconds,
     /// What loop closure did (all zero unless the scan completed a node).
     pub loops: LoopDiagnostics,
+    /// The tracking verdict and how it was reached.
+    pub tracking: Tracking,
 }
 
 /// Wall-clock seconds spent in each stage of one [`Mapper::push`].
@@ -167,6 +170,38 @@ pub struct Mapper {
     last_odom: Option<Pose2>,
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
+    loose: LoosePoints,
+    lost_streak: u32,
+    verdicts: TrackingSummary,
+}
+
+/// Verdict counts over a run, and the runs of consecutive lost scans.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct TrackingSummary {
+    /// Scans tracked confidently.
+    pub ok: u32,
+    /// Scans with a direction taken from the motion prior.
+    pub weak: u32,
+    /// Scans with no confident match (they did not enter the map).
+    pub lost: u32,
+    /// Inclusive ranges `[first, last]` of consecutive lost scans (scan indices, 0-based).
+    pub lost_ranges: Vec<[u32; 2]>,
+}
+
+impl TrackingSummary {
+    fn count(&mut self, t: u32, verdict: Verdict) {
+        match verdict {
+            Verdict::Ok => self.ok += 1,
+            Verdict::Weak => self.weak += 1,
+            Verdict::Lost => {
+                self.lost += 1;
+                match self.lost_ranges.last_mut() {
+                    Some(r) if r[1] + 1 == t => r[1] = t,
+                    _ => self.lost_ranges.push([t, t]),
+                }
+            }
+        }
+    }
 }
 
 impl Mapper {
@@ -185,6 +220,9 @@ impl Mapper {
                 config.mapper.grid_cell_m,
             ),
             trajectory: Vec::new(),
+            loose: LoosePoints::default(),
+            lost_streak: 0,
+            verdicts: TrackingSummary::default(),
             config,
         }
     }
@@ -225,6 +263,11 @@ impl Mapper {
             self.apply_correction(&c);
         }
         diagnostics
+    }
+
+    /// Tracking verdict counts so far, with the ranges of lost scans.
+    pub fn tracking_summary(&self) -> &TrackingSummary {
+        &self.verdicts
     }
 
     /// Loop edges accepted so far.
@@ -269,19 +312,36 @@ impl Mapper {
         let t = self.scans;
         let clock = Instant::now();
         let (guess, anchor) = self.guess(scan.odom_from_robot);
-        let align = self.align(&scan, guess, anchor);
+        let (align, tracking) = self.align(&scan, guess, anchor);
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
+        // A lost scan keeps its (poor) fit, the best guess there is, but stays out of the map.
         let fallback = if self.map.is_empty() { guess } else { anchor };
         let pose = align.map_or(fallback, |a| a.map_from_robot);
         self.prev_pose = self.last_pose.replace(pose);
         self.last_odom = scan.odom_from_robot;
+        self.verdicts.count(t, tracking.verdict);
+        let lost = tracking.verdict == Verdict::Lost;
+        self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
+        if !lost {
+            let spacing = self.config.tracking.loose_point_spacing_m;
+            let loose = thin_points(&scan.points_in_robot, spacing)
+                .into_iter()
+                .map(|p| pose.transform_point(p))
+                .collect();
+            self.loose
+                .push(loose, self.config.tracking.loose_point_scans);
+        }
         let aligned = Instant::now();
-        let scan_in_map: Vec<Segment> = scan
-            .segments_in_robot
-            .iter()
-            .map(|s| s.transformed(&pose))
-            .collect();
+        // Segments of a lost scan stay out of the map until tracking finds it again.
+        let scan_in_map: Vec<Segment> = if lost {
+            Vec::new()
+        } else {
+            scan.segments_in_robot
+                .iter()
+                .map(|s| s.transformed(&pose))
+                .collect()
+        };
         let recent = self
             .map
             .born_since(t.saturating_sub(self.config.directions.time_memory_scans));
@@ -321,6 +381,7 @@ impl Mapper {
                 loops: (closed - merged).as_secs_f64(),
             },
             loops,
+            tracking,
         };
         Update {
             scan_index: t,
@@ -457,14 +518,123 @@ impl Mapper {
         }
     }
 
-    /// ICP of the scan against the map near the guess; `None` when there is nothing to align to.
-    fn align(&self, scan: &PreparedScan, guess: Pose2, anchor: Pose2) -> Option<AlignResult> {
+    /// ICP of the scan against the map near the guess, and a window search when ICP's basin
+    /// may not reach (see [`crate::align::should_search`]), with the verdict; `None` when there
+    /// is nothing to align to.
+    fn align(
+        &self,
+        scan: &PreparedScan,
+        guess: Pose2,
+        anchor: Pose2,
+    ) -> (Option<AlignResult>, Tracking) {
+        let params = &self.config.align;
+        let points = thin_points(&scan.points_in_robot, params.point_spacing_m);
+        let first = self.map.is_empty();
+        let tracked = self.icp(scan, &points, guess, anchor);
+        let mut tracking = verdict(
+            tracked.0.as_ref(),
+            points.len(),
+            first,
+            &self.config.tracking,
+        );
+        tracking.searched = tracked.1;
+        tracking.search_won = tracked.2;
+        (tracked.0, tracking)
+    }
+
+    /// [`Mapper::align`]'s fit: ICP from the starts, the recovery, the window search; with
+    /// whether the search ran and whether it won.
+    fn icp(
+        &self,
+        scan: &PreparedScan,
+        points: &[Vec2],
+        guess: Pose2,
+        anchor: Pose2,
+    ) -> (Option<AlignResult>, bool, bool) {
+        let Some(result) = self.icp_from_starts(scan, points, guess, anchor) else {
+            return (None, false, false);
+        };
+        let tracking = &self.config.tracking;
+        if !should_search(
+            &guess,
+            &anchor,
+            Some(&result),
+            points.len(),
+            self.lost_streak,
+            tracking,
+        ) {
+            return (Some(result), false, false);
+        }
+        let window = search_window(&guess, &anchor, self.lost_streak, tracking);
+        let loose = self.loose.all();
+        let Some(found) = window_search(&self.map, &loose, points, &window, tracking) else {
+            return (Some(result), true, false);
+        };
+        let searched = self.run_icp(scan, points, found.map_from_robot, anchor);
+        if better(&searched, &result) {
+            (Some(searched), true, true)
+        } else {
+            (Some(result), true, false)
+        }
+    }
+
+    /// One ICP run from `start` with the configured correspondences.
+    fn run_icp(
+        &self,
+        scan: &PreparedScan,
+        points: &[Vec2],
+        start: Pose2,
+        anchor: Pose2,
+    ) -> AlignResult {
+        let params = &self.config.align;
+        match params.method {
+            AlignMethod::PointToSegment => align_points(points, &self.map, start, anchor, params),
+            AlignMethod::Endpoints => {
+                let near = self.near_endpoints_map(scan, start);
+                align_endpoints(
+                    &scan.segments_in_robot,
+                    &self.map,
+                    &near,
+                    start,
+                    anchor,
+                    params,
+                )
+            }
+        }
+    }
+
+    /// Map segments near the scan placed at `guess`, for endpoint ICP.
+    fn near_endpoints_map(&self, scan: &PreparedScan, guess: Pose2) -> Vec<Segment> {
+        let Some((lo, hi)) = bounds(
+            scan.points_in_robot
+                .iter()
+                .map(|p| guess.transform_point(*p)),
+        ) else {
+            return Vec::new();
+        };
+        let margin = Vec2::splat(self.config.align.initial_gate_m);
+        self.map
+            .query(lo - margin, hi + margin)
+            .iter()
+            .filter_map(|id| self.map.get(*id))
+            .map(|s| s.segment)
+            .collect()
+    }
+
+    /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
+    /// nothing to align to.
+    fn icp_from_starts(
+        &self,
+        scan: &PreparedScan,
+        points: &[Vec2],
+        guess: Pose2,
+        anchor: Pose2,
+    ) -> Option<AlignResult> {
         if self.map.is_empty() || scan.points_in_robot.is_empty() {
             return None;
         }
         let params = &self.config.align;
         let segs_in_robot = &scan.segments_in_robot;
-        let points = thin_points(&scan.points_in_robot, params.point_spacing_m);
         let near: Vec<Segment> = match params.method {
             AlignMethod::PointToSegment => Vec::new(),
             AlignMethod::Endpoints => {
@@ -495,13 +665,13 @@ impl Mapper {
         if self.config.mapper.also_start_at_anchor && anchor != guess {
             starts.insert(0, anchor);
         }
-        let searched = rotation_search(&points, &self.map, guess, params);
+        let searched = rotation_search(points, &self.map, guess, params);
         if searched != guess {
             starts.push(searched);
         }
         if self.config.mapper.icp_from_best_start_only && starts.len() > 1 {
             let margin = self.config.mapper.start_score_margin;
-            starts = vec![best_scoring(&starts, &points, &self.map, params, margin)];
+            starts = vec![best_scoring(&starts, points, &self.map, params, margin)];
         }
         let result = starts
             .into_iter()
@@ -516,7 +686,7 @@ impl Mapper {
         {
             return Some(result);
         }
-        let Some(recovered) = self.recover(&points, anchor, &run) else {
+        let Some(recovered) = self.recover(points, anchor, &run) else {
             return Some(result);
         };
         // Kept only when it fits well where the guess fitted badly: a turned scan that is

@@ -1,0 +1,502 @@
+//! Correlative scan matching, exact within its window by branch and bound (an addition to the
+//! paper, after Olson's real-time correlative scan matching, 2009, and the fast correlative
+//! matcher of Hess et al., 2016).
+//!
+//! A pose is scored by the sum of the [`ScoreRaster`] values under the scan's points. The
+//! window's rotations are stepped so that the farthest point moves by at most one cell; for
+//! each rotation the points fall on cells, and a translation by whole cells only shifts them,
+//! so every candidate's score is a sum of lookups. Branch and bound covers the translations
+//! with square blocks of `2^h` cells whose bound is the sum, per point, of the raster's maximum
+//! over the block (precomputed once per raster for each `h`); a block is opened only while its
+//! bound beats the best score found. Since floating-point addition is monotone, a bound is
+//! never below any score it covers, so the answer is the best candidate of the window,
+//! exactly: the same score a brute-force scan of all candidates finds. ICP refines it below
+//! the cell size.
+
+use super::raster::ScoreRaster;
+use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
+
+/// Highest block level: blocks of up to `2^6 = 64` cells a side.
+const MAX_LEVEL: u32 = 6;
+
+/// A box of poses to search: translations within `half_xy_m` of the centre along x and y (map
+/// frame), rotations within `half_theta_rad` of its heading (at least π: the whole circle).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SearchWindow {
+    /// The centre of the window, map frame.
+    pub center: Pose2,
+    /// Half-width of the translation window along each axis, metres.
+    pub half_xy_m: f64,
+    /// Half-width of the rotation window, radians.
+    pub half_theta_rad: f64,
+}
+
+/// A pose of the window with its score.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    /// The pose, map frame.
+    pub map_from_robot: Pose2,
+    /// Mean raster value under the points, in `[0, 1]`.
+    pub score: f64,
+}
+
+/// A region of poses a search must skip: within `radius_m` of a pose's translation and
+/// `radius_rad` of its heading (to find the best pose apart from peaks already found).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Exclusion {
+    /// The centre of the excluded region, map frame.
+    pub center: Pose2,
+    /// Radius in translation, metres.
+    pub radius_m: f64,
+    /// Radius in rotation, radians.
+    pub radius_rad: f64,
+}
+
+/// A raster prepared for branch and bound: its block maxima at every level.
+#[derive(Debug, Clone)]
+pub struct CorrelativeMatcher {
+    raster: ScoreRaster,
+    /// Level `h` holds, at padded cell `(x + pad, y + pad)`, the raster's maximum over the
+    /// block `[x, x + 2^h) × [y, y + 2^h)`; `pad = 2^top − 1` cells on the low sides.
+    levels: Vec<Vec<f32>>,
+    pad: i64,
+    padded_width: i64,
+    padded_height: i64,
+}
+
+/// One rotation of the window: the points' cells at zero offset.
+struct Rotation {
+    theta_rad: f64,
+    cells: Vec<(i64, i64)>,
+}
+
+/// A block of translations: offsets `[ix, ix + 2^level) × [iy, iy + 2^level)` cells at one
+/// rotation, with its bound.
+#[derive(Debug, Clone, Copy)]
+struct Block {
+    rotation: usize,
+    ix: i64,
+    iy: i64,
+    level: u32,
+    bound: f32,
+}
+
+impl CorrelativeMatcher {
+    /// Prepares `raster` for searching windows of any size (cost: two passes over its cells
+    /// for each of six levels).
+    pub fn new(raster: ScoreRaster) -> Self {
+        Self::with_levels(raster, MAX_LEVEL)
+    }
+
+    /// Prepares `raster` for windows up to `half_xy_m` (fewer levels: cheaper to prepare; a
+    /// larger window is still searched exactly, from more top blocks).
+    pub fn for_window(raster: ScoreRaster, half_xy_m: f64) -> Self {
+        let reach = ((half_xy_m.max(0.0) / raster.cell_m()).ceil() as i64).min(1 << 16);
+        Self::with_levels(raster, ceil_log2(2 * reach + 1).min(MAX_LEVEL))
+    }
+
+    fn with_levels(raster: ScoreRaster, max_level: u32) -> Self {
+        let (w, h) = raster.size();
+        let pad = (1i64 << max_level) - 1;
+        let (pw, ph) = (w as i64 + pad, h as i64 + pad);
+        let mut base = vec![0f32; (pw * ph) as usize];
+        for (y, row) in raster.values().chunks(w.max(1)).enumerate() {
+            let at = (y as i64 + pad) * pw + pad;
+            base[at as usize..at as usize + row.len()].copy_from_slice(row);
+        }
+        let mut levels = vec![base];
+        for level in 1..=max_level {
+            let half = 1i64 << (level - 1);
+            let prev = &levels[level as usize - 1];
+            // Along x, then along y, each a max of two blocks of the level below.
+            let mut both: Vec<f32> = prev
+                .chunks(pw as usize)
+                .flat_map(|row| {
+                    (0..row.len()).map(move |x| match row.get(x + half as usize) {
+                        Some(v) => row[x].max(*v),
+                        None => row[x],
+                    })
+                })
+                .collect();
+            let step = (half * pw) as usize;
+            for i in 0..both.len().saturating_sub(step) {
+                both[i] = both[i].max(both[i + step]);
+            }
+            levels.push(both);
+        }
+        CorrelativeMatcher {
+            raster,
+            levels,
+            pad,
+            padded_width: pw,
+            padded_height: ph,
+        }
+    }
+
+    /// The raster searched.
+    pub fn raster(&self) -> &ScoreRaster {
+        &self.raster
+    }
+
+    /// The best pose of `window` for `points_in_robot` (robot frame) outside every exclusion,
+    /// if its score reaches `min_score` (mean raster value, `[0, 1]`).
+    pub fn best(
+        &self,
+        points_in_robot: &[Vec2],
+        window: &SearchWindow,
+        min_score: f64,
+        exclusions: &[Exclusion],
+    ) -> Option<Candidate> {
+        let n = points_in_robot.len();
+        if n == 0 || self.raster.size().0 == 0 {
+            return None;
+        }
+        let rotations = self.rotations(points_in_robot, window);
+        let reach = self.translation_steps(window);
+        let top = (self.levels.len() as u32 - 1).min(ceil_log2(2 * reach + 1));
+        let mut blocks = Vec::new();
+        for r in 0..rotations.len() {
+            let mut ix = -reach;
+            while ix <= reach {
+                let mut iy = -reach;
+                while iy <= reach {
+                    blocks.push(self.block(&rotations, r, ix, iy, top));
+                    iy += 1 << top;
+                }
+                ix += 1 << top;
+            }
+        }
+        blocks.sort_by(|a, b| b.bound.total_cmp(&a.bound));
+        let mut best: Option<(f32, Block)> = None;
+        let floor = (min_score * n as f64) as f32;
+        let ctx = Search {
+            matcher: self,
+            rotations: &rotations,
+            window,
+            reach,
+            exclusions,
+        };
+        for b in blocks {
+            ctx.descend(b, floor, &mut best);
+        }
+        best.map(|(sum, b)| Candidate {
+            map_from_robot: ctx.pose(b),
+            score: sum as f64 / n as f64,
+        })
+    }
+
+    /// Up to `max` best poses of `window`, each apart from the ones before by `apart_m` or
+    /// `apart_rad` (peaks, best first), scoring at least `min_score`.
+    pub fn peaks(
+        &self,
+        points_in_robot: &[Vec2],
+        window: &SearchWindow,
+        min_score: f64,
+        max: usize,
+        apart_m: f64,
+        apart_rad: f64,
+    ) -> Vec<Candidate> {
+        let mut found: Vec<Candidate> = Vec::new();
+        let mut exclusions = Vec::new();
+        while found.len() < max {
+            let Some(c) = self.best(points_in_robot, window, min_score, &exclusions) else {
+                break;
+            };
+            exclusions.push(Exclusion {
+                center: c.map_from_robot,
+                radius_m: apart_m,
+                radius_rad: apart_rad,
+            });
+            found.push(c);
+        }
+        found
+    }
+
+    /// The best candidate by scoring every one (the oracle of [`CorrelativeMatcher::best`]).
+    pub fn best_brute_force(
+        &self,
+        points_in_robot: &[Vec2],
+        window: &SearchWindow,
+    ) -> Option<Candidate> {
+        let n = points_in_robot.len();
+        if n == 0 || self.raster.size().0 == 0 {
+            return None;
+        }
+        let rotations = self.rotations(points_in_robot, window);
+        let reach = self.translation_steps(window);
+        let ctx = Search {
+            matcher: self,
+            rotations: &rotations,
+            window,
+            reach,
+            exclusions: &[],
+        };
+        let mut best: Option<(f32, Block)> = None;
+        for r in 0..rotations.len() {
+            for ix in -reach..=reach {
+                for iy in -reach..=reach {
+                    let b = self.block(&rotations, r, ix, iy, 0);
+                    if best.is_none_or(|(s, _)| b.bound > s) {
+                        best = Some((b.bound, b));
+                    }
+                }
+            }
+        }
+        best.map(|(sum, b)| Candidate {
+            map_from_robot: ctx.pose(b),
+            score: sum as f64 / n as f64,
+        })
+    }
+
+    /// The rotations of the window, stepped so that the farthest point moves at most one cell.
+    fn rotations(&self, points: &[Vec2], window: &SearchWindow) -> Vec<Rotation> {
+        let cell = self.raster.cell_m();
+        let reach_m = points
+            .iter()
+            .map(|p| p.length())
+            .fold(cell, f64::max)
+            .min(1e6);
+        let step = (1.0 - cell * cell / (2.0 * reach_m * reach_m))
+            .clamp(-1.0, 1.0)
+            .acos();
+        let half = window.half_theta_rad.clamp(0.0, std::f64::consts::PI);
+        let count = ((half / step.max(1e-4)).ceil() as i64).min(4000);
+        let c = window.center;
+        (-count..=count)
+            .map(|k| {
+                let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
+                let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
+                let cells = points
+                    .iter()
+                    .map(|p| self.raster.cell_of(pose.transform_point(*p)))
+                    .collect();
+                Rotation { theta_rad, cells }
+            })
+            .collect()
+    }
+
+    /// The translation window in whole cells each way.
+    fn translation_steps(&self, window: &SearchWindow) -> i64 {
+        let cell = self.raster.cell_m();
+        ((window.half_xy_m.max(0.0) / cell).ceil() as i64).min(1 << 16)
+    }
+
+    /// The block at `(ix, iy)` of `level` for rotation `r`, with its bound.
+    fn block(&self, rotations: &[Rotation], r: usize, ix: i64, iy: i64, level: u32) -> Block {
+        let values = &self.levels[level as usize];
+        let mut bound = 0f32;
+        for &(cx, cy) in &rotations[r].cells {
+            let (x, y) = (cx + ix + self.pad, cy + iy + self.pad);
+            if x >= 0 && y >= 0 && x < self.padded_width && y < self.padded_height {
+                bound += values[(y * self.padded_width + x) as usize];
+            }
+        }
+        Block {
+            rotation: r,
+            ix,
+            iy,
+            level,
+            bound,
+        }
+    }
+}
+
+/// The state of one search.
+struct Search<'a> {
+    matcher: &'a CorrelativeMatcher,
+    rotations: &'a [Rotation],
+    window: &'a SearchWindow,
+    reach: i64,
+    exclusions: &'a [Exclusion],
+}
+
+impl Search<'_> {
+    /// Opens `b` while its bound beats the best so far (and `floor`).
+    fn descend(&self, b: Block, floor: f32, best: &mut Option<(f32, Block)>) {
+        let to_beat = best.map_or(floor, |(s, _)| s);
+        let beats = if best.is_some() {
+            b.bound > to_beat
+        } else {
+            b.bound >= to_beat
+        };
+        if !beats || self.excluded(&b, true) {
+            return;
+        }
+        if b.level == 0 {
+            if !self.excluded(&b, false) {
+                *best = Some((b.bound, b));
+            }
+            return;
+        }
+        let size = 1i64 << (b.level - 1);
+        let mut children: Vec<Block> = [(0, 0), (size, 0), (0, size), (size, size)]
+            .into_iter()
+            .map(|(dx, dy)| (b.ix + dx, b.iy + dy))
+            .filter(|&(ix, iy)| ix <= self.reach && iy <= self.reach)
+            .map(|(ix, iy)| {
+                self.matcher
+                    .block(self.rotations, b.rotation, ix, iy, b.level - 1)
+            })
+            .collect();
+        children.sort_by(|a, b| b.bound.total_cmp(&a.bound));
+        for c in children {
+            self.descend(c, floor, best);
+        }
+    }
+
+    /// The pose of a block's lowest offset.
+    fn pose(&self, b: Block) -> Pose2 {
+        let cell = self.matcher.raster.cell_m();
+        let c = self.window.center;
+        Pose2::new(
+            c.x_m + b.ix as f64 * cell,
+            c.y_m + b.iy as f64 * cell,
+            self.rotations[b.rotation].theta_rad,
+        )
+    }
+
+    /// Whether the block lies wholly (`whole`) or its lowest offset lies (`!whole`) inside an
+    /// exclusion.
+    fn excluded(&self, b: &Block, whole: bool) -> bool {
+        if self.exclusions.is_empty() {
+            return false;
+        }
+        let cell = self.matcher.raster.cell_m();
+        let span = if whole {
+            ((1i64 << b.level) - 1) as f64 * cell
+        } else {
+            0.0
+        };
+        let p = self.pose(*b);
+        self.exclusions.iter().any(|e| {
+            let turned = normalize_angle_rad(p.theta_rad - e.center.theta_rad).abs();
+            if turned > e.radius_rad {
+                return false;
+            }
+            let corners = [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)];
+            corners.iter().all(|(dx, dy)| {
+                Vec2::new(p.x_m + dx, p.y_m + dy).distance(e.center.translation()) <= e.radius_m
+            })
+        })
+    }
+}
+
+fn ceil_log2(n: i64) -> u32 {
+    let mut level = 0;
+    while (1i64 << level) < n {
+        level += 1;
+    }
+    level
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Segment;
+
+    /// A room with a pillar and a doorway: asymmetric enough for one best pose.
+    fn room() -> (Vec<Segment>, Vec<Vec2>) {
+        let p = |x, y| Vec2::new(x, y);
+        let segs = vec![
+            Segment::new(p(-3.0, -2.0), p(5.0, -2.0)),
+            Segment::new(p(5.0, -2.0), p(5.0, 3.0)),
+            Segment::new(p(5.0, 3.0), p(1.0, 3.0)),
+            Segment::new(p(0.0, 3.0), p(-3.0, 3.0)),
+            Segment::new(p(-3.0, 3.0), p(-3.0, -2.0)),
+        ];
+        let pillar = (0..12)
+            .map(|i| {
+                let a = i as f64 * std::f64::consts::TAU / 12.0;
+                p(2.0 + 0.15 * a.cos(), 1.0 + 0.15 * a.sin())
+            })
+            .collect();
+        (segs, pillar)
+    }
+
+    fn scan_of(segs: &[Segment], pillar: &[Vec2], map_from_robot: Pose2) -> Vec<Vec2> {
+        let robot_from_map = map_from_robot.inverse();
+        let mut pts: Vec<Vec2> = segs
+            .iter()
+            .flat_map(|s| (0..=20).map(move |i| s.start + s.vector() * (i as f64 / 20.0)))
+            .collect();
+        pts.extend_from_slice(pillar);
+        pts.iter()
+            .map(|p| robot_from_map.transform_point(*p))
+            .collect()
+    }
+
+    #[test]
+    fn branch_and_bound_finds_the_brute_force_best() {
+        let (segs, pillar) = room();
+        let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
+        let truth = Pose2::new(0.4, -0.3, 0.35);
+        let points = scan_of(&segs, &pillar, truth);
+        for (center, half_xy, half_deg) in [
+            (Pose2::IDENTITY, 0.6, 30.0),
+            (Pose2::new(0.1, 0.2, 0.1), 1.0, 45.0),
+            (Pose2::new(-0.5, 0.5, -1.0), 0.3, 10.0), // truth outside: best of the window
+        ] {
+            let window = SearchWindow {
+                center,
+                half_xy_m: half_xy,
+                half_theta_rad: f64::to_radians(half_deg),
+            };
+            let fast = matcher.best(&points, &window, 0.0, &[]).unwrap();
+            let slow = matcher.best_brute_force(&points, &window).unwrap();
+            assert_eq!(fast.score, slow.score, "window {window:?}");
+        }
+        let window = SearchWindow {
+            center: Pose2::IDENTITY,
+            half_xy_m: 1.0,
+            half_theta_rad: 0.6,
+        };
+        let found = matcher.best(&points, &window, 0.0, &[]).unwrap();
+        let d = truth.between(&found.map_from_robot);
+        assert!(
+            d.translation().length() < 0.15 && d.theta_rad.abs() < 0.03,
+            "{found:?}"
+        );
+    }
+
+    #[test]
+    fn the_whole_circle_recovers_a_turned_scan() {
+        let (segs, pillar) = room();
+        let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
+        let truth = Pose2::new(1.0, 0.5, 2.6);
+        let points = scan_of(&segs, &pillar, truth);
+        let window = SearchWindow {
+            center: Pose2::new(0.5, 0.0, -0.4),
+            half_xy_m: 1.0,
+            half_theta_rad: std::f64::consts::PI,
+        };
+        let found = matcher.best(&points, &window, 0.5, &[]).unwrap();
+        let d = truth.between(&found.map_from_robot);
+        assert!(
+            d.translation().length() < 0.15 && d.theta_rad.abs() < 0.03,
+            "{found:?}"
+        );
+    }
+
+    #[test]
+    fn peaks_are_apart_and_a_high_floor_finds_nothing() {
+        let (segs, pillar) = room();
+        let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
+        let points = scan_of(&segs, &pillar, Pose2::IDENTITY);
+        let window = SearchWindow {
+            center: Pose2::IDENTITY,
+            half_xy_m: 0.8,
+            half_theta_rad: 0.3,
+        };
+        let peaks = matcher.peaks(&points, &window, 0.0, 3, 0.3, 0.1);
+        assert_eq!(peaks.len(), 3);
+        for (i, a) in peaks.iter().enumerate() {
+            for b in &peaks[i + 1..] {
+                let d = a.map_from_robot.between(&b.map_from_robot);
+                assert!(d.translation().length() > 0.3 || d.theta_rad.abs() > 0.1);
+                assert!(a.score >= b.score);
+            }
+        }
+        assert!(matcher.best(&points, &window, 1.01, &[]).is_none());
+        assert!(matcher.best(&[], &window, 0.0, &[]).is_none());
+    }
+}

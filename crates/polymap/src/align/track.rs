@@ -1,0 +1,451 @@
+//! Tracking: when to search beyond ICP's basin, how wide, and the verdict on each scan.
+//!
+//! ICP from the motion prior is exact and cheap when the prior is close, which it is on dense
+//! logs. It is not when the robot moved far or turned fast between scans (sparse logs, fast
+//! robots), or when ICP's fit is poor. Then the [`CorrelativeMatcher`] searches a window around
+//! the prediction on a likelihood raster of the map near it and of the recent scan points that
+//! form no segment, and ICP refines its best pose; the better of the two fits wins. The window
+//! grows with the predicted motion (a constant-velocity prediction is wrong by about as much as
+//! the robot moved), and with every scan that found no match.
+//!
+//! Each scan gets a [`Verdict`]: `ok`, `weak` (ICP left a direction unobservable, so the pose
+//! along it comes from the prior: a bare corridor) or `lost` (too few points fit anywhere).
+
+use serde::{Deserialize, Serialize};
+
+use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow};
+use super::raster::ScoreRaster;
+use super::{AlignResult, score_sample_n};
+use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
+use crate::map::GlobalMap;
+
+/// Parameters of tracking (section `[tracking]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TrackParams {
+    /// Search a window around the prediction when the motion is large or ICP fits poorly.
+    pub window_search: bool,
+    /// Search when the predicted motion between scans is longer than this, metres...
+    pub search_above_step_m: f64,
+    /// ...or turns more than this, degrees...
+    pub search_above_turn_deg: f64,
+    /// ...or when fewer than this share of the (thinned) scan points are ICP inliers.
+    pub search_below_inlier_share: f64,
+    /// Half-width of the smallest translation window, metres.
+    pub min_window_m: f64,
+    /// Half-width of the largest translation window while tracking, metres.
+    pub max_window_m: f64,
+    /// Half-width of the smallest rotation window, degrees.
+    pub min_window_deg: f64,
+    /// Half-width of the largest rotation window while tracking, degrees.
+    pub max_window_deg: f64,
+    /// The translation window's half-width grows by this many times the predicted step.
+    pub window_per_step: f64,
+    /// The rotation window's half-width grows by this many times the predicted turn...
+    pub window_per_turn: f64,
+    /// ...and by this many degrees per metre of predicted step (a robot that moved far may
+    /// have started or stopped turning on the way).
+    pub window_deg_per_m: f64,
+    /// Each scan lost in a row widens the translation window by this, metres (the rotation
+    /// window is then the whole circle)...
+    pub lost_window_growth_m: f64,
+    /// ...up to this, metres.
+    pub lost_window_max_m: f64,
+    /// Cell of the search raster, metres.
+    pub search_cell_m: f64,
+    /// Scale of the search raster's kernel, metres.
+    pub search_sigma_m: f64,
+    /// About this many scan points are scored per candidate pose.
+    pub search_points: usize,
+    /// Only points within this range of the robot are scored (unless fewer than 20 are),
+    /// metres: the raster covers the window widened by it.
+    pub search_max_range_m: f64,
+    /// A scan is `lost` when fewer than this share of its (thinned) points are ICP inliers.
+    pub lost_below_inlier_share: f64,
+    /// Scan points of the last this many scans that lie off the map's segments enter the
+    /// search raster (pillars, corners, door frames).
+    pub loose_point_scans: usize,
+    /// Loose points are thinned to this spacing, metres.
+    pub loose_point_spacing_m: f64,
+}
+
+impl Default for TrackParams {
+    fn default() -> Self {
+        TrackParams {
+            window_search: true,
+            search_above_step_m: 0.2,
+            search_above_turn_deg: 12.0,
+            search_below_inlier_share: 0.3,
+            min_window_m: 0.3,
+            max_window_m: 1.0,
+            min_window_deg: 15.0,
+            max_window_deg: 90.0,
+            window_per_step: 1.0,
+            window_per_turn: 1.0,
+            window_deg_per_m: 60.0,
+            lost_window_growth_m: 0.5,
+            lost_window_max_m: 3.0,
+            search_cell_m: 0.1,
+            search_sigma_m: 0.2,
+            search_points: 150,
+            search_max_range_m: 8.0,
+            lost_below_inlier_share: 0.15,
+            loose_point_scans: 5,
+            loose_point_spacing_m: 0.1,
+        }
+    }
+}
+
+impl TrackParams {
+    /// The first key (as `tracking.KEY`) whose value is out of its range, if any.
+    pub fn invalid_key(&self) -> Option<&'static str> {
+        let positive = |v: f64| v.is_finite() && v > 0.0;
+        let share = |v: f64| (0.0..=1.0).contains(&v);
+        let checks = [
+            (
+                "tracking.search_above_step_m",
+                self.search_above_step_m >= 0.0,
+            ),
+            (
+                "tracking.search_above_turn_deg",
+                self.search_above_turn_deg >= 0.0,
+            ),
+            (
+                "tracking.search_below_inlier_share",
+                share(self.search_below_inlier_share),
+            ),
+            (
+                "tracking.min_window_m",
+                (0.0..=10.0).contains(&self.min_window_m),
+            ),
+            (
+                "tracking.max_window_m",
+                (self.min_window_m..=10.0).contains(&self.max_window_m),
+            ),
+            (
+                "tracking.min_window_deg",
+                (0.0..=180.0).contains(&self.min_window_deg),
+            ),
+            (
+                "tracking.max_window_deg",
+                (self.min_window_deg..=180.0).contains(&self.max_window_deg),
+            ),
+            (
+                "tracking.window_per_step",
+                (0.0..=100.0).contains(&self.window_per_step),
+            ),
+            (
+                "tracking.window_per_turn",
+                (0.0..=100.0).contains(&self.window_per_turn),
+            ),
+            (
+                "tracking.window_deg_per_m",
+                (0.0..=1000.0).contains(&self.window_deg_per_m),
+            ),
+            (
+                "tracking.lost_window_growth_m",
+                (0.0..=10.0).contains(&self.lost_window_growth_m),
+            ),
+            (
+                "tracking.lost_window_max_m",
+                (0.0..=50.0).contains(&self.lost_window_max_m),
+            ),
+            (
+                "tracking.search_cell_m",
+                positive(self.search_cell_m) && (0.01..=1.0).contains(&self.search_cell_m),
+            ),
+            (
+                "tracking.search_sigma_m",
+                (0.01..=5.0).contains(&self.search_sigma_m),
+            ),
+            (
+                "tracking.search_points",
+                (1..=10_000).contains(&self.search_points),
+            ),
+            (
+                "tracking.search_max_range_m",
+                (1.0..=1e3).contains(&self.search_max_range_m),
+            ),
+            (
+                "tracking.lost_below_inlier_share",
+                share(self.lost_below_inlier_share),
+            ),
+            ("tracking.loose_point_scans", self.loose_point_scans <= 1000),
+            (
+                "tracking.loose_point_spacing_m",
+                (0.01..=10.0).contains(&self.loose_point_spacing_m),
+            ),
+        ];
+        checks.iter().find(|(_, ok)| !ok).map(|(key, _)| *key)
+    }
+}
+
+/// How well a scan was tracked.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Verdict {
+    /// A confident match in every direction.
+    #[default]
+    Ok,
+    /// A match, but some direction was unobservable and came from the motion prior.
+    Weak,
+    /// No confident match: the pose is the best fit found, but the scan does not enter the map.
+    Lost,
+}
+
+/// Why a scan got its verdict.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Reason {
+    /// The first scan, or a scan with nothing to align to: it starts the map.
+    #[default]
+    Start,
+    /// Enough points fit, every direction observed.
+    Fit,
+    /// Enough points fit, but some direction was unobservable (a bare corridor).
+    Degenerate,
+    /// Too few points fit, even after the window search.
+    TooFewInliers,
+    /// The scan has no valid points.
+    NoPoints,
+}
+
+/// The tracking outcome of one scan.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Tracking {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// Why.
+    pub reason: Reason,
+    /// Share of the (thinned) scan points that are ICP inliers, `[0, 1]`.
+    pub inlier_share: f64,
+    /// Whether the correlative window search ran.
+    pub searched: bool,
+    /// Whether the search's pose won over ICP from the prediction.
+    pub search_won: bool,
+    /// Map-frame direction, degrees in `[0, 180)`, along which translation was unobservable,
+    /// when one was.
+    pub weak_direction_deg: Option<f64>,
+}
+
+/// Whether the window search should run: large predicted motion, a poor fit, or lost before.
+pub fn should_search(
+    prediction: &Pose2,
+    anchor: &Pose2,
+    icp: Option<&AlignResult>,
+    thinned_points: usize,
+    lost_streak: u32,
+    params: &TrackParams,
+) -> bool {
+    if !params.window_search || thinned_points == 0 {
+        return false;
+    }
+    let motion = anchor.between(prediction);
+    let share = icp.map_or(0.0, |r| r.inliers as f64 / thinned_points as f64);
+    lost_streak > 0
+        || motion.translation().length() > params.search_above_step_m
+        || motion.theta_rad.abs().to_degrees() > params.search_above_turn_deg
+        || share < params.search_below_inlier_share
+}
+
+/// The window around `prediction`: wider for a larger predicted motion, and for every scan lost
+/// in a row (then over the whole circle).
+pub fn search_window(
+    prediction: &Pose2,
+    anchor: &Pose2,
+    lost_streak: u32,
+    params: &TrackParams,
+) -> SearchWindow {
+    let motion = anchor.between(prediction);
+    if lost_streak > 0 {
+        let half = params.max_window_m + params.lost_window_growth_m * lost_streak as f64;
+        return SearchWindow {
+            center: *prediction,
+            half_xy_m: half.min(params.lost_window_max_m.max(params.max_window_m)),
+            half_theta_rad: std::f64::consts::PI,
+        };
+    }
+    let step = motion.translation().length();
+    let turn_deg = normalize_angle_rad(motion.theta_rad).abs().to_degrees();
+    let half_xy = (params.min_window_m + params.window_per_step * step).clamp(
+        params.min_window_m,
+        params.max_window_m.max(params.min_window_m),
+    );
+    let half_deg = (params.min_window_deg
+        + params.window_per_turn * turn_deg
+        + params.window_deg_per_m * step)
+        .clamp(
+            params.min_window_deg,
+            params.max_window_deg.max(params.min_window_deg),
+        );
+    SearchWindow {
+        center: *prediction,
+        half_xy_m: half_xy,
+        half_theta_rad: half_deg.to_radians(),
+    }
+}
+
+/// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
+/// the loose points near it (map frame); `None` when nothing scores.
+pub fn window_search(
+    map: &GlobalMap,
+    loose_points_in_map: &[Vec2],
+    points_in_robot: &[Vec2],
+    window: &SearchWindow,
+    params: &TrackParams,
+) -> Option<Candidate> {
+    // Far points sharpen the rotation but widen the raster (its cost): up to a range, unless
+    // too few are that near.
+    let near: Vec<Vec2> = points_in_robot
+        .iter()
+        .copied()
+        .filter(|p| p.length() <= params.search_max_range_m)
+        .collect();
+    let points = if near.len() >= 20 {
+        &near[..]
+    } else {
+        points_in_robot
+    };
+    let sample = score_sample_n(points, params.search_points);
+    let reach_m = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
+    let margin = Vec2::splat(window.half_xy_m + reach_m + params.search_sigma_m);
+    let (lo, hi) = (
+        window.center.translation() - margin,
+        window.center.translation() + margin,
+    );
+    let mut raster = ScoreRaster::new(lo, hi, params.search_cell_m, params.search_sigma_m);
+    let mut any = false;
+    for id in map.query(lo, hi) {
+        if let Some(s) = map.get(id) {
+            raster.add_segment(&s.segment);
+            any = true;
+        }
+    }
+    for p in loose_points_in_map {
+        if p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y {
+            raster.add_point(*p);
+            any = true;
+        }
+    }
+    if !any {
+        return None;
+    }
+    CorrelativeMatcher::for_window(raster, window.half_xy_m).best(&sample, window, 0.05, &[])
+}
+
+/// The verdict on a scan from its final alignment.
+pub fn verdict(
+    result: Option<&AlignResult>,
+    thinned_points: usize,
+    first: bool,
+    params: &TrackParams,
+) -> Tracking {
+    let Some(r) = result else {
+        let reason = if first || thinned_points > 0 {
+            Reason::Start
+        } else {
+            Reason::NoPoints
+        };
+        let verdict = if reason == Reason::Start {
+            Verdict::Ok
+        } else {
+            Verdict::Lost
+        };
+        return Tracking {
+            verdict,
+            reason,
+            ..Tracking::default()
+        };
+    };
+    let share = r.inliers as f64 / thinned_points.max(1) as f64;
+    let (verdict, reason) = if share < params.lost_below_inlier_share {
+        (Verdict::Lost, Reason::TooFewInliers)
+    } else if r.weak_directions > 0 {
+        (Verdict::Weak, Reason::Degenerate)
+    } else {
+        (Verdict::Ok, Reason::Fit)
+    };
+    Tracking {
+        verdict,
+        reason,
+        inlier_share: share,
+        searched: false,
+        search_won: false,
+        weak_direction_deg: r.weak_direction_deg,
+    }
+}
+
+/// Keeps the loose points of the last scans: points of a tracked scan (robot frame, placed by
+/// `map_from_robot`) farther than `off_m` from the map, thinned.
+#[derive(Debug, Clone, Default)]
+pub struct LoosePoints {
+    scans: std::collections::VecDeque<Vec<Vec2>>,
+}
+
+impl LoosePoints {
+    /// Adds one scan's points (map frame, already filtered to those off the map), keeping the
+    /// last `keep_scans` scans.
+    pub fn push(&mut self, points_in_map: Vec<Vec2>, keep_scans: usize) {
+        self.scans.push_back(points_in_map);
+        while self.scans.len() > keep_scans {
+            self.scans.pop_front();
+        }
+    }
+
+    /// Every kept point, map frame.
+    pub fn all(&self) -> Vec<Vec2> {
+        self.scans.iter().flatten().copied().collect()
+    }
+
+    /// Moves every kept point by `new_from_old` (a loop correction).
+    pub fn transform(&mut self, new_from_old: &Pose2) {
+        for p in self.scans.iter_mut().flatten() {
+            *p = new_from_old.transform_point(*p);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_window_grows_with_the_motion_and_when_lost() {
+        let p = TrackParams::default();
+        let anchor = Pose2::IDENTITY;
+        let still = search_window(&anchor, &anchor, 0, &p);
+        assert_eq!(still.half_xy_m, p.min_window_m);
+        assert!((still.half_theta_rad.to_degrees() - p.min_window_deg).abs() < 1e-9);
+        let fast = Pose2::new(0.5, 0.0, 30f64.to_radians());
+        let w = search_window(&fast, &anchor, 0, &p);
+        assert!((w.half_xy_m - 0.8).abs() < 1e-9);
+        assert!((w.half_theta_rad.to_degrees() - 75.0).abs() < 1e-9);
+        let lost = search_window(&fast, &anchor, 3, &p);
+        assert!((lost.half_xy_m - 2.5).abs() < 1e-9);
+        assert_eq!(lost.half_theta_rad, std::f64::consts::PI);
+        assert!(should_search(&fast, &anchor, None, 10, 0, &p));
+        assert!(!should_search(&anchor, &anchor, None, 0, 0, &p));
+    }
+
+    #[test]
+    fn verdicts_follow_the_share_and_the_weak_directions() {
+        let p = TrackParams::default();
+        let mut r = AlignResult {
+            map_from_robot: Pose2::IDENTITY,
+            iterations: 3,
+            correspondences: 100,
+            inliers: 90,
+            residual_rms_m: 0.01,
+            converged: true,
+            weak_directions: 0,
+            weak_direction_deg: None,
+        };
+        assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Ok);
+        r.weak_directions = 1;
+        assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Weak);
+        r.inliers = 10;
+        assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Lost);
+        assert_eq!(verdict(None, 0, false, &p).verdict, Verdict::Lost);
+        assert_eq!(verdict(None, 10, true, &p).verdict, Verdict::Ok);
+    }
+}
