@@ -653,7 +653,7 @@ impl Mapper {
             }
         };
         let run = |start: Pose2| match params.method {
-            AlignMethod::PointToSegment => align_points(&points, &self.map, start, anchor, params),
+            AlignMethod::PointToSegment => align_points(points, &self.map, start, anchor, params),
             AlignMethod::Endpoints => {
                 align_endpoints(segs_in_robot, &self.map, &near, start, anchor, params)
             }
