@@ -38,8 +38,8 @@ pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
 pub use solver::Constraint;
 pub use track::{
-    LoosePoints, Reason, TrackParams, Tracking, Verdict, search_window, should_search, verdict,
-    window_search,
+    LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict, WindowMatch, search_window,
+    should_search, verdict, window_search,
 };
 
 /// Which correspondences drive ICP.

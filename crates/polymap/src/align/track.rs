@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow};
+use super::correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 use super::raster::ScoreRaster;
 use super::{AlignResult, score_sample_n};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
@@ -60,8 +60,16 @@ pub struct TrackParams {
     /// Only points within this range of the robot are scored (unless fewer than 20 are),
     /// metres: the raster covers the window widened by it.
     pub search_max_range_m: f64,
-    /// A scan is `lost` when fewer than this share of its (thinned) points are ICP inliers.
+    /// A scan is `lost` when fewer than this share of its (thinned) points are ICP inliers...
     pub lost_below_inlier_share: f64,
+    /// ...and `weak` when fewer than this share are.
+    pub weak_below_inlier_share: f64,
+    /// A search is ambiguous when a pose at least `rival_apart_m`...
+    pub rival_apart_m: f64,
+    /// ...or `rival_apart_deg` degrees from the best...
+    pub rival_apart_deg: f64,
+    /// ...scores at least this share of the best's score; the scan is then `weak`.
+    pub ambiguous_above: f64,
     /// Scan points of the last this many scans that lie off the map's segments enter the
     /// search raster (pillars, corners, door frames).
     pub loose_point_scans: usize,
@@ -75,7 +83,7 @@ impl Default for TrackParams {
             window_search: true,
             search_above_step_m: 0.2,
             search_above_turn_deg: 12.0,
-            search_below_inlier_share: 0.3,
+            search_below_inlier_share: 0.5,
             min_window_m: 0.3,
             max_window_m: 1.0,
             min_window_deg: 15.0,
@@ -90,6 +98,10 @@ impl Default for TrackParams {
             search_points: 150,
             search_max_range_m: 8.0,
             lost_below_inlier_share: 0.15,
+            weak_below_inlier_share: 0.4,
+            rival_apart_m: 0.5,
+            rival_apart_deg: 10.0,
+            ambiguous_above: 0.95,
             loose_point_scans: 5,
             loose_point_spacing_m: 0.1,
         }
@@ -172,6 +184,18 @@ impl TrackParams {
             ),
             ("tracking.loose_point_scans", self.loose_point_scans <= 1000),
             (
+                "tracking.rival_apart_m",
+                (0.0..=100.0).contains(&self.rival_apart_m),
+            ),
+            (
+                "tracking.rival_apart_deg",
+                (0.0..=180.0).contains(&self.rival_apart_deg),
+            ),
+            (
+                "tracking.ambiguous_above",
+                (0.0..=1.0).contains(&self.ambiguous_above),
+            ),
+            (
                 "tracking.loose_point_spacing_m",
                 (0.01..=10.0).contains(&self.loose_point_spacing_m),
             ),
@@ -204,6 +228,10 @@ pub enum Reason {
     Fit,
     /// Enough points fit, but some direction was unobservable (a bare corridor).
     Degenerate,
+    /// Enough points fit to keep the scan, too few to trust it.
+    PoorFit,
+    /// The window search found a distinct pose that explains the scan about as well.
+    Ambiguous,
     /// Too few points fit, even after the window search.
     TooFewInliers,
     /// The scan has no valid points.
@@ -228,10 +256,13 @@ pub struct Tracking {
     pub weak_direction_deg: Option<f64>,
 }
 
-/// Whether the window search should run: large predicted motion, a poor fit, or lost before.
+/// Whether the window search should run: large motion (predicted, or of any of the last few
+/// scans: a robot that moves far per scan may stop or turn at any scan), a poor fit, or lost
+/// before.
 pub fn should_search(
     prediction: &Pose2,
     anchor: &Pose2,
+    recent: &RecentMotion,
     icp: Option<&AlignResult>,
     thinned_points: usize,
     lost_streak: u32,
@@ -241,11 +272,53 @@ pub fn should_search(
         return false;
     }
     let motion = anchor.between(prediction);
+    let step_m = motion.translation().length().max(recent.step_m());
+    let turn_deg = normalize_angle_rad(motion.theta_rad)
+        .abs()
+        .to_degrees()
+        .max(recent.turn_deg());
     let share = icp.map_or(0.0, |r| r.inliers as f64 / thinned_points as f64);
     lost_streak > 0
-        || motion.translation().length() > params.search_above_step_m
-        || motion.theta_rad.abs().to_degrees() > params.search_above_turn_deg
+        || step_m > params.search_above_step_m
+        || turn_deg > params.search_above_turn_deg
         || share < params.search_below_inlier_share
+}
+
+/// The largest step and turn over the last few scans.
+#[derive(Debug, Clone, Default)]
+pub struct RecentMotion {
+    steps: std::collections::VecDeque<(f64, f64)>,
+}
+
+impl RecentMotion {
+    /// How many scans are remembered.
+    pub const SCANS: usize = 5;
+
+    /// Records the motion from one scan's pose to the next's.
+    pub fn push(&mut self, from: &Pose2, to: &Pose2) {
+        let d = from.between(to);
+        self.steps.push_back((
+            d.translation().length(),
+            normalize_angle_rad(d.theta_rad).abs(),
+        ));
+        while self.steps.len() > Self::SCANS {
+            self.steps.pop_front();
+        }
+    }
+
+    /// The longest recent step, metres (0 before any).
+    pub fn step_m(&self) -> f64 {
+        self.steps.iter().map(|s| s.0).fold(0.0, f64::max)
+    }
+
+    /// The largest recent turn, degrees (0 before any).
+    pub fn turn_deg(&self) -> f64 {
+        self.steps
+            .iter()
+            .map(|s| s.1)
+            .fold(0.0, f64::max)
+            .to_degrees()
+    }
 }
 
 /// The window around `prediction`: wider for a larger predicted motion, and for every scan lost
@@ -285,15 +358,33 @@ pub fn search_window(
     }
 }
 
+/// The outcome of a window search: the best pose, and the best one apart from it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WindowMatch {
+    /// The best pose of the window.
+    pub best: Candidate,
+    /// The best pose at least `rival_apart_m` or `rival_apart_deg` from `best`, if one scores
+    /// at least `ambiguous_above` of its score.
+    pub rival: Option<Candidate>,
+}
+
+impl WindowMatch {
+    /// Whether a distinct pose explains the scan about as well as the best.
+    pub fn ambiguous(&self) -> bool {
+        self.rival.is_some()
+    }
+}
+
 /// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
-/// the loose points near it (map frame); `None` when nothing scores.
+/// of the loose points near it that the map does not explain (map frame), with its rival;
+/// `None` when nothing scores.
 pub fn window_search(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
     points_in_robot: &[Vec2],
     window: &SearchWindow,
     params: &TrackParams,
-) -> Option<Candidate> {
+) -> Option<WindowMatch> {
     // Far points sharpen the rotation but widen the raster (its cost): up to a range, unless
     // too few are that near.
     let near: Vec<Vec2> = points_in_robot
@@ -321,16 +412,35 @@ pub fn window_search(
             any = true;
         }
     }
-    for p in loose_points_in_map {
-        if p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y {
-            raster.add_point(*p);
-            any = true;
-        }
+    // Only points the segments leave unexplained: pillars, corners, door frames. Clutter the
+    // map already covers would only flatten the score.
+    let unexplained: Vec<Vec2> = loose_points_in_map
+        .iter()
+        .copied()
+        .filter(|p| p.x >= lo.x && p.y >= lo.y && p.x <= hi.x && p.y <= hi.y)
+        .filter(|p| raster.at(*p) < 0.5)
+        .collect();
+    for p in &unexplained {
+        raster.add_point(*p);
+        any = true;
     }
     if !any {
         return None;
     }
-    CorrelativeMatcher::for_window(raster, window.half_xy_m).best(&sample, window, 0.05, &[])
+    let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
+    let best = matcher.best(&sample, window, 0.05, &[])?;
+    let exclusion = Exclusion {
+        center: best.map_from_robot,
+        radius_m: params.rival_apart_m,
+        radius_rad: params.rival_apart_deg.to_radians(),
+    };
+    let rival = matcher.best(
+        &sample,
+        window,
+        params.ambiguous_above * best.score,
+        &[exclusion],
+    );
+    Some(WindowMatch { best, rival })
 }
 
 /// The verdict on a scan from its final alignment.
@@ -360,6 +470,8 @@ pub fn verdict(
     let share = r.inliers as f64 / thinned_points.max(1) as f64;
     let (verdict, reason) = if share < params.lost_below_inlier_share {
         (Verdict::Lost, Reason::TooFewInliers)
+    } else if share < params.weak_below_inlier_share {
+        (Verdict::Weak, Reason::PoorFit)
     } else if r.weak_directions > 0 {
         (Verdict::Weak, Reason::Degenerate)
     } else {
@@ -423,8 +535,39 @@ mod tests {
         let lost = search_window(&fast, &anchor, 3, &p);
         assert!((lost.half_xy_m - 2.5).abs() < 1e-9);
         assert_eq!(lost.half_theta_rad, std::f64::consts::PI);
-        assert!(should_search(&fast, &anchor, None, 10, 0, &p));
-        assert!(!should_search(&anchor, &anchor, None, 0, 0, &p));
+        let mut recent = RecentMotion::default();
+        assert!(should_search(&fast, &anchor, &recent, None, 10, 0, &p));
+        assert!(!should_search(&anchor, &anchor, &recent, None, 0, 0, &p));
+        // A good fit with no motion predicted still searches when the robot moved far lately.
+        let good = AlignResult {
+            map_from_robot: anchor,
+            iterations: 3,
+            correspondences: 10,
+            inliers: 9,
+            residual_rms_m: 0.01,
+            converged: true,
+            weak_directions: 0,
+            weak_direction_deg: None,
+        };
+        assert!(!should_search(
+            &anchor,
+            &anchor,
+            &recent,
+            Some(&good),
+            10,
+            0,
+            &p
+        ));
+        recent.push(&anchor, &fast);
+        assert!(should_search(
+            &anchor,
+            &anchor,
+            &recent,
+            Some(&good),
+            10,
+            0,
+            &p
+        ));
     }
 
     #[test]
@@ -443,6 +586,9 @@ mod tests {
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Ok);
         r.weak_directions = 1;
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Weak);
+        r.weak_directions = 0;
+        r.inliers = 30;
+        assert_eq!(verdict(Some(&r), 100, false, &p).reason, Reason::PoorFit);
         r.inliers = 10;
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Lost);
         assert_eq!(verdict(None, 0, false, &p).verdict, Verdict::Lost);

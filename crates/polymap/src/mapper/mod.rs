@@ -12,9 +12,9 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, LoosePoints, Tracking, Verdict, align_endpoints,
-    align_points, fit_score, fit_score_above, rotation_search, score_sample, search_window,
-    should_search, thin_points, verdict, window_search,
+    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, Tracking, Verdict,
+    WindowMatch, align_endpoints, align_points, fit_score, fit_score_above, rotation_search,
+    score_sample, search_window, should_search, thin_points, verdict, window_search,
 };
 use crate::config::Config;
 use crate::directions::main_directions;
@@ -171,6 +171,7 @@ pub struct Mapper {
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
     loose: LoosePoints,
+    recent: RecentMotion,
     lost_streak: u32,
     verdicts: TrackingSummary,
 }
@@ -221,6 +222,7 @@ impl Mapper {
             ),
             trajectory: Vec::new(),
             loose: LoosePoints::default(),
+            recent: RecentMotion::default(),
             lost_streak: 0,
             verdicts: TrackingSummary::default(),
             config,
@@ -318,6 +320,9 @@ impl Mapper {
         // A lost scan keeps its (poor) fit, the best guess there is, but stays out of the map.
         let fallback = if self.map.is_empty() { guess } else { anchor };
         let pose = align.map_or(fallback, |a| a.map_from_robot);
+        if let Some(last) = self.last_pose {
+            self.recent.push(&last, &pose);
+        }
         self.prev_pose = self.last_pose.replace(pose);
         self.last_odom = scan.odom_from_robot;
         self.verdicts.count(t, tracking.verdict);
@@ -537,8 +542,12 @@ impl Mapper {
             first,
             &self.config.tracking,
         );
-        tracking.searched = tracked.1;
+        tracking.searched = tracked.1.is_some();
         tracking.search_won = tracked.2;
+        if tracking.verdict == Verdict::Ok && tracked.1.is_some_and(|m| m.ambiguous()) {
+            tracking.verdict = Verdict::Weak;
+            tracking.reason = Reason::Ambiguous;
+        }
         (tracked.0, tracking)
     }
 
@@ -550,31 +559,32 @@ impl Mapper {
         points: &[Vec2],
         guess: Pose2,
         anchor: Pose2,
-    ) -> (Option<AlignResult>, bool, bool) {
+    ) -> (Option<AlignResult>, Option<WindowMatch>, bool) {
         let Some(result) = self.icp_from_starts(scan, points, guess, anchor) else {
-            return (None, false, false);
+            return (None, None, false);
         };
         let tracking = &self.config.tracking;
         if !should_search(
             &guess,
             &anchor,
+            &self.recent,
             Some(&result),
             points.len(),
             self.lost_streak,
             tracking,
         ) {
-            return (Some(result), false, false);
+            return (Some(result), None, false);
         }
         let window = search_window(&guess, &anchor, self.lost_streak, tracking);
         let loose = self.loose.all();
         let Some(found) = window_search(&self.map, &loose, points, &window, tracking) else {
-            return (Some(result), true, false);
+            return (Some(result), None, false);
         };
-        let searched = self.run_icp(scan, points, found.map_from_robot, anchor);
+        let searched = self.run_icp(scan, points, found.best.map_from_robot, anchor);
         if better(&searched, &result) {
-            (Some(searched), true, true)
+            (Some(searched), Some(found), true)
         } else {
-            (Some(result), true, false)
+            (Some(result), Some(found), false)
         }
     }
 
