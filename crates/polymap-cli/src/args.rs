@@ -133,9 +133,15 @@ pub struct MapArgs {
     /// Also draw the scan points in map.svg.
     #[arg(long)]
     pub svg_points: bool,
-    /// Stop after this many scans.
+    /// Stop after this many scans (counted after --every).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub max_scans: Option<u64>,
+    /// Use every K-th scan of the log (faster, less accurate; larger steps between scans).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=1_000_000))]
+    pub every: u64,
+    /// With --every K: start at this scan (0-based, below K), to use another phase of the log.
+    #[arg(long, default_value_t = 0)]
+    pub every_offset: u64,
     /// Also write per-scan diagnostics (ICP, merge counts, main directions) to
     /// DIR/diagnostics.jsonl, one JSON object per scan.
     #[arg(long)]

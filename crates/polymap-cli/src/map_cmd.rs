@@ -10,7 +10,9 @@ use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use polymap::config::Config;
 use polymap::geometry::Vec2;
-use polymap::mapper::{Mapper, MotionPrior, PreparedScan, ScanDiagnostics, StageSeconds, Update};
+use polymap::mapper::{
+    Mapper, MotionPrior, PreparedScan, ScanDiagnostics, StageSeconds, TrackingSummary, Update,
+};
 use polymap::scan::RangeScan;
 use polymap_io::carmen::{CarmenReader, CarmenStats, ReaderOptions};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
@@ -29,6 +31,12 @@ const MAX_SVG_POINTS: usize = 200_000;
 
 pub fn run(a: &MapArgs) -> Result<()> {
     let config = effective_config(&a.preset, &a.config, a.odometry)?;
+    anyhow::ensure!(
+        a.every_offset < a.every,
+        "--every-offset {} must be below --every {}",
+        a.every_offset,
+        a.every
+    );
     if a.print_config {
         say_raw!("{}", to_toml(&config)?);
         return Ok(());
@@ -57,7 +65,8 @@ pub fn run(a: &MapArgs) -> Result<()> {
     };
     let segments = run.mapper.segments();
     let polylines = run.mapper.polylines();
-    let summary = summary(&log, &config, &run, segments.len(), polylines.len())?;
+    let every = (a.every, a.every_offset);
+    let summary = summary(&log, &config, &run, every, segments.len(), polylines.len())?;
     let final_content = SnapshotContent::of_map(
         &segments,
         run.mapper.scans(),
@@ -156,10 +165,14 @@ fn map_log(log: &Path, config: &Config, a: &MapArgs) -> Result<Run> {
     let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD_BATCHES);
     let reading = {
         let config = config.clone();
-        let max_scans = a.max_scans;
+        let pick = Pick {
+            max_scans: a.max_scans,
+            every: a.every,
+            offset: a.every_offset,
+        };
         std::thread::Builder::new()
             .name("polymap-read".into())
-            .spawn(move || read_ahead(reader, &config, max_scans, batch, tx))
+            .spawn(move || read_ahead(reader, &config, pick, batch, tx))
             .with_context(|| format!("{}: cannot start the reading thread", log.display()))?
     };
     // On an error this returns at once, dropping `rx`: the reading thread ends at its next
@@ -213,19 +226,28 @@ struct Ready {
     read: Duration,
 }
 
-/// Reads up to `max_scans` scans and prepares them for the mapper, sending them in batches of
+/// Which scans of the log are mapped: every `every`-th from `offset`, at most `max_scans`.
+#[derive(Debug, Clone, Copy)]
+struct Pick {
+    max_scans: Option<u64>,
+    every: u64,
+    offset: u64,
+}
+
+/// Reads the picked scans and prepares them for the mapper, sending them in batches of
 /// `batch_scans`; a read error is sent after the scans before it. Stops early when the
 /// receiver has gone.
 fn read_ahead(
     mut reader: LogReader,
     config: &Config,
-    max_scans: Option<u64>,
+    pick: Pick,
     batch_scans: usize,
     tx: std::sync::mpsc::SyncSender<Result<Vec<Ready>>>,
 ) -> CarmenStats {
     let mut batch = Vec::with_capacity(batch_scans);
     let mut count = 0u64;
-    while max_scans.is_none_or(|m| count < m) {
+    let mut index = 0u64;
+    while pick.max_scans.is_none_or(|m| count < m) {
         let t0 = Instant::now();
         let scan = match reader.next_scan() {
             Ok(Some(scan)) => scan,
@@ -236,6 +258,10 @@ fn read_ahead(
                 return reader.stats().clone();
             }
         };
+        index += 1;
+        if (index - 1) % pick.every != pick.offset {
+            continue;
+        }
         let read = t0.elapsed();
         let prepared = Mapper::prepare(config, &scan);
         batch.push(Ready {
@@ -434,6 +460,7 @@ fn summary(
     log: &Path,
     config: &Config,
     run: &Run,
+    a_every: (u64, u64),
     segments: usize,
     polylines: usize,
 ) -> Result<serde_json::Value> {
@@ -454,6 +481,8 @@ fn summary(
         "latency_ms": { "p50": p50, "p99": p99, "max": max },
         "icp_not_converged": run.icp_failures,
         "loop_closures": run.mapper.loop_closures(),
+        "every": { "k": a_every.0, "offset": a_every.1 },
+        "tracking": run.mapper.tracking_summary(),
         "stage_s": run.stages,
         "final_main_directions_deg": run.last.main_directions_deg,
         "reader": {
@@ -465,6 +494,42 @@ fn summary(
         },
         "config": serde_json::to_value(config)?,
     }))
+}
+
+/// Says when tracking failed: the scans lost (not in the map), or a large share of weak ones.
+fn warn_tracking(t: &TrackingSummary, scans: usize) {
+    if t.lost > 0 {
+        let ranges: Vec<String> = t
+            .lost_ranges
+            .iter()
+            .take(10)
+            .map(|[a, b]| {
+                if a == b {
+                    format!("{a}")
+                } else {
+                    format!("{a}-{b}")
+                }
+            })
+            .collect();
+        let more = if t.lost_ranges.len() > 10 {
+            ", ..."
+        } else {
+            ""
+        };
+        eprintln!(
+            "polymap: warning: tracking lost {} of {scans} scans (scans {}{more}): they are not \
+             in the map and their poses are unreliable (summary.json: tracking)",
+            t.lost,
+            ranges.join(", ")
+        );
+    }
+    if t.weak as f64 > 0.1 * scans as f64 {
+        eprintln!(
+            "polymap: warning: tracking was weak on {} of {scans} scans (a direction came from \
+             the motion prior, the fit was poor or ambiguous): check the map",
+            t.weak
+        );
+    }
 }
 
 fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
@@ -487,6 +552,7 @@ fn report(a: &MapArgs, run: &Run, segments: usize, polylines: usize) {
         run.poses.len() as f64 / elapsed.max(1e-9),
         PathBuf::from(&a.output).display()
     );
+    warn_tracking(run.mapper.tracking_summary(), run.poses.len());
     if a.timings {
         let [p50, p99, max] = percentiles_ms(&run.latencies);
         let st = &run.stages;

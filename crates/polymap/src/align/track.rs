@@ -64,6 +64,9 @@ pub struct TrackParams {
     pub lost_below_inlier_share: f64,
     /// ...and `weak` when fewer than this share are.
     pub weak_below_inlier_share: f64,
+    /// ICP from the search's pose replaces ICP from the prediction only with more inliers
+    /// than this share above the latter's (plus two).
+    pub search_win_margin: f64,
     /// A search is ambiguous when a pose at least `rival_apart_m`...
     pub rival_apart_m: f64,
     /// ...or `rival_apart_deg` degrees from the best...
@@ -95,10 +98,11 @@ impl Default for TrackParams {
             lost_window_max_m: 3.0,
             search_cell_m: 0.1,
             search_sigma_m: 0.2,
-            search_points: 150,
+            search_points: 100,
             search_max_range_m: 8.0,
             lost_below_inlier_share: 0.15,
             weak_below_inlier_share: 0.4,
+            search_win_margin: 0.1,
             rival_apart_m: 0.5,
             rival_apart_deg: 10.0,
             ambiguous_above: 0.95,
@@ -358,6 +362,9 @@ pub fn search_window(
     }
 }
 
+/// A window search's best pose must explain at least this mean raster value per point.
+const MIN_SCORE: f64 = 0.05;
+
 /// The outcome of a window search: the best pose, and the best one apart from it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WindowMatch {
@@ -377,12 +384,14 @@ impl WindowMatch {
 
 /// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
 /// of the loose points near it that the map does not explain (map frame), with its rival;
-/// `None` when nothing scores.
+/// `None` when nothing scores. A `seed` pose (ICP's answer) is the score to beat: the search
+/// then only opens blocks that could beat it, and returns the seed when none does.
 pub fn window_search(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
     points_in_robot: &[Vec2],
     window: &SearchWindow,
+    seed: Option<Pose2>,
     params: &TrackParams,
 ) -> Option<WindowMatch> {
     // Far points sharpen the rotation but widen the raster (its cost): up to a range, unless
@@ -427,8 +436,17 @@ pub fn window_search(
     if !any {
         return None;
     }
+    let seeded = seed.map(|pose| Candidate {
+        map_from_robot: pose,
+        score: sample
+            .iter()
+            .map(|p| raster.at(pose.transform_point(*p)))
+            .sum::<f64>()
+            / sample.len().max(1) as f64,
+    });
+    let floor = seeded.map_or(MIN_SCORE, |c| c.score.max(MIN_SCORE));
     let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
-    let best = matcher.best(&sample, window, 0.05, &[])?;
+    let best = matcher.best(&sample, window, floor, &[]).or(seeded)?;
     let exclusion = Exclusion {
         center: best.map_from_robot,
         radius_m: params.rival_apart_m,

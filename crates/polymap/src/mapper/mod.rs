@@ -577,11 +577,18 @@ impl Mapper {
         }
         let window = search_window(&guess, &anchor, self.lost_streak, tracking);
         let loose = self.loose.all();
-        let Some(found) = window_search(&self.map, &loose, points, &window, tracking) else {
+        let seed = Some(result.map_from_robot);
+        let Some(found) = window_search(&self.map, &loose, points, &window, seed, tracking) else {
             return (Some(result), None, false);
         };
+        if found.best.map_from_robot == result.map_from_robot {
+            return (Some(result), Some(found), false); // nothing in the window beat ICP's pose
+        }
         let searched = self.run_icp(scan, points, found.best.map_from_robot, anchor);
-        if better(&searched, &result) {
+        // The search's pose must fit clearly better: along a corridor, or with odometry's good
+        // guess, a pose that fits a few more points by coincidence is no evidence.
+        let margin = self.config.tracking.search_win_margin;
+        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 {
             (Some(searched), Some(found), true)
         } else {
             (Some(result), Some(found), false)
