@@ -67,6 +67,9 @@ pub struct TrackParams {
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
+    /// Whether scans that are `weak` for a poor fit or an ambiguous search still enter the map
+    /// (lost scans never do).
+    pub merge_doubtful_scans: bool,
     /// A search is ambiguous when a pose at least `rival_apart_m`...
     pub rival_apart_m: f64,
     /// ...or `rival_apart_deg` degrees from the best...
@@ -103,6 +106,7 @@ impl Default for TrackParams {
             lost_below_inlier_share: 0.15,
             weak_below_inlier_share: 0.4,
             search_win_margin: 0.1,
+            merge_doubtful_scans: true,
             rival_apart_m: 0.5,
             rival_apart_deg: 10.0,
             ambiguous_above: 0.95,

@@ -12,7 +12,7 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, Tracking, Verdict,
+    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, SearchWindow, Tracking, Verdict,
     WindowMatch, align_endpoints, align_points, fit_score, fit_score_above, rotation_search,
     score_sample, search_window, should_search, thin_points, verdict, window_search,
 };
@@ -20,7 +20,6 @@ use crate::config::Config;
 use crate::directions::main_directions;
 use crate::extract::extract_segments;
 use crate::geometry::{Pose2, Segment, Vec2};
-use crate::loops::field::{PoseGrid, ScoreField, distinct_peaks};
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics};
 use crate::map::{GlobalMap, MapSegment};
 use crate::polyline::group_polylines;
@@ -338,8 +337,12 @@ impl Mapper {
                 .push(loose, self.config.tracking.loose_point_scans);
         }
         let aligned = Instant::now();
-        // Segments of a lost scan stay out of the map until tracking finds it again.
-        let scan_in_map: Vec<Segment> = if lost {
+        // Segments of a lost scan stay out of the map until tracking finds it again; those of
+        // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
+        // which is not where it is sure to be: one wrong scan in the map misleads the next.
+        let doubtful = matches!(tracking.reason, Reason::PoorFit | Reason::Ambiguous)
+            && !self.config.tracking.merge_doubtful_scans;
+        let scan_in_map: Vec<Segment> = if lost || doubtful {
             Vec::new()
         } else {
             scan.segments_in_robot
@@ -395,43 +398,25 @@ impl Mapper {
         }
     }
 
-    /// ICP from the best poses of a search over the whole circle and a grid of positions
-    /// around the anchor, scored on a raster of the map near it; the result with the most
-    /// inliers. `None` when there is no map near.
+    /// ICP from the best pose (and its rival, if any) of a window search over the whole circle
+    /// within [`RECOVER_TRANSLATION_M`] of the anchor; the result with the most inliers.
+    /// `None` when there is no map near.
     fn recover(
         &self,
         points: &[Vec2],
         anchor: Pose2,
         run: &impl Fn(Pose2) -> AlignResult,
     ) -> Option<AlignResult> {
-        let reach = Vec2::splat(RECOVER_REACH_M);
-        let near: Vec<Segment> = self
-            .map
-            .query(anchor.translation() - reach, anchor.translation() + reach)
-            .iter()
-            .filter_map(|id| self.map.get(*id))
-            .map(|s| s.segment)
-            .collect();
-        if near.is_empty() {
-            return None;
-        }
-        let params = &self.config.align;
-        let field = ScoreField::new(&near, params.rotation_search_sigma_m, 0.1);
-        let sample = score_sample(points, params);
-        let steps_r = (180.0 / params.rotation_search_step_deg).round() as i32;
-        let scored = field.scored_grid(
-            &sample,
-            &PoseGrid {
-                center: anchor,
-                steps_xy: (RECOVER_TRANSLATION_M / RECOVER_STEP_M).round() as i32,
-                step_m: RECOVER_STEP_M,
-                rotations: -steps_r..steps_r,
-                step_rad: params.rotation_search_step_deg.to_radians(),
-            },
-        );
-        distinct_peaks(&scored, &[], 0.3, 5f64.to_radians(), 3, f64::NEG_INFINITY)
-            .into_iter()
-            .map(run)
+        let window = SearchWindow {
+            center: anchor,
+            half_xy_m: RECOVER_TRANSLATION_M,
+            half_theta_rad: std::f64::consts::PI,
+        };
+        let loose = self.loose.all();
+        let found = window_search(&self.map, &loose, points, &window, None, &self.config.tracking)?;
+        std::iter::once(found.best)
+            .chain(found.rival)
+            .map(|c| run(c.map_from_robot))
             .reduce(|best, r| if better(&r, &best) { r } else { best })
     }
 
@@ -738,12 +723,8 @@ fn best_scoring(
     best.1
 }
 
-/// The recovery search looks at map segments within this distance of the anchor, metres...
-const RECOVER_REACH_M: f64 = 15.0;
-/// ...at positions within this distance of it (each axis), metres...
+/// The recovery searches positions within this distance of the anchor (each axis), metres.
 const RECOVER_TRANSLATION_M: f64 = 1.0;
-/// ...in steps of this, metres.
-const RECOVER_STEP_M: f64 = 0.25;
 
 /// True when `a` explains the scan better than `b`: more inliers, then a lower residual.
 fn better(a: &AlignResult, b: &AlignResult) -> bool {
