@@ -67,6 +67,11 @@ pub struct TrackParams {
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
+    /// With the odometry prior, ICP also starts from the constant-velocity guess when it is
+    /// farther than this from the odometry guess, metres...
+    pub odometry_check_m: f64,
+    /// ...or turned by more than this, degrees.
+    pub odometry_check_deg: f64,
     /// Whether scans that are `weak` for a poor fit or an ambiguous search still enter the map
     /// (lost scans never do).
     pub merge_doubtful_scans: bool,
@@ -107,6 +112,8 @@ impl Default for TrackParams {
             weak_below_inlier_share: 0.4,
             search_win_margin: 0.1,
             merge_doubtful_scans: true,
+            odometry_check_m: 0.3,
+            odometry_check_deg: 15.0,
             rival_apart_m: 0.5,
             rival_apart_deg: 10.0,
             ambiguous_above: 0.95,

@@ -470,6 +470,21 @@ impl Mapper {
             .map(|p| delta(t.saturating_sub(1)).compose(&p));
     }
 
+    /// The constant-velocity guess, with the odometry prior, when it differs from the odometry
+    /// `guess` by more than `tracking.odometry_check_m` or `tracking.odometry_check_deg`.
+    fn odometry_disagrees(&self, guess: &Pose2) -> Option<Pose2> {
+        if self.config.mapper.motion_prior != MotionPrior::Odometry {
+            return None;
+        }
+        let (prev, last) = (self.prev_pose?, self.last_pose?);
+        let cv = last.compose(&prev.between(&last));
+        let d = guess.between(&cv);
+        let t = &self.config.tracking;
+        (d.translation().length() > t.odometry_check_m
+            || d.theta_rad.abs().to_degrees() > t.odometry_check_deg)
+            .then_some(cv)
+    }
+
     /// The first guess for the new scan's pose, and the anchor that directions ICP cannot
     /// observe fall back to.
     ///
@@ -666,6 +681,12 @@ impl Mapper {
         let mut starts = vec![guess];
         if self.config.mapper.also_start_at_anchor && anchor != guess {
             starts.insert(0, anchor);
+        }
+        // Odometry is checked against the scans' own motion: where the odometry increment and
+        // the constant-velocity one disagree (a slip, a bad turn), ICP also runs from the
+        // latter, and the better fit wins.
+        if let Some(cv) = self.odometry_disagrees(&guess) {
+            starts.push(cv);
         }
         let searched = rotation_search(points, &self.map, guess, params);
         if searched != guess {
