@@ -51,6 +51,9 @@ pub struct TrackParams {
     pub lost_window_growth_m: f64,
     /// ...up to this, metres.
     pub lost_window_max_m: f64,
+    /// Every this many scans lost in a row, the search covers the whole map and the whole
+    /// circle (a global re-localization); 0 never.
+    pub relocalize_every_lost: u32,
     /// Cell of the search raster, metres.
     pub search_cell_m: f64,
     /// Scale of the search raster's kernel, metres.
@@ -64,6 +67,13 @@ pub struct TrackParams {
     pub lost_below_inlier_share: f64,
     /// ...and `weak` when fewer than this share are.
     pub weak_below_inlier_share: f64,
+    /// A scan is `lost` when fewer than this share of its ICP correspondences (points within
+    /// the final gate of a wall) are inliers: the points land near walls but not on them, so
+    /// the pose contradicts the map (a wrong match, a kidnapped robot); points far from any
+    /// wall (a new room) do not count against it...
+    pub lost_below_inlier_ratio: f64,
+    /// ...and `weak` when fewer than this share are.
+    pub weak_below_inlier_ratio: f64,
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
@@ -104,12 +114,15 @@ impl Default for TrackParams {
             window_deg_per_m: 60.0,
             lost_window_growth_m: 0.5,
             lost_window_max_m: 3.0,
+            relocalize_every_lost: 10,
             search_cell_m: 0.1,
             search_sigma_m: 0.2,
             search_points: 100,
             search_max_range_m: 8.0,
             lost_below_inlier_share: 0.15,
             weak_below_inlier_share: 0.4,
+            lost_below_inlier_ratio: 0.5,
+            weak_below_inlier_ratio: 0.6,
             search_win_margin: 0.1,
             merge_doubtful_scans: true,
             odometry_check_m: 0.3,
@@ -247,6 +260,8 @@ pub enum Reason {
     PoorFit,
     /// The window search found a distinct pose that explains the scan about as well.
     Ambiguous,
+    /// Most points near a wall are not on it: the pose contradicts the map.
+    Contradicted,
     /// Too few points fit, even after the window search.
     TooFewInliers,
     /// The scan has no valid points.
@@ -497,9 +512,12 @@ pub fn verdict(
         };
     };
     let share = r.inliers as f64 / thinned_points.max(1) as f64;
+    let ratio = r.inliers as f64 / r.correspondences.max(1) as f64;
     let (verdict, reason) = if share < params.lost_below_inlier_share {
         (Verdict::Lost, Reason::TooFewInliers)
-    } else if share < params.weak_below_inlier_share {
+    } else if ratio < params.lost_below_inlier_ratio {
+        (Verdict::Lost, Reason::Contradicted)
+    } else if share < params.weak_below_inlier_share || ratio < params.weak_below_inlier_ratio {
         (Verdict::Weak, Reason::PoorFit)
     } else if r.weak_directions > 0 {
         (Verdict::Weak, Reason::Degenerate)
@@ -617,9 +635,18 @@ mod tests {
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Weak);
         r.weak_directions = 0;
         r.inliers = 30;
+        r.correspondences = 40;
         assert_eq!(verdict(Some(&r), 100, false, &p).reason, Reason::PoorFit);
+        r.correspondences = 100;
         r.inliers = 10;
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Lost);
+        r.inliers = 45;
+        assert_eq!(
+            verdict(Some(&r), 100, false, &p).reason,
+            Reason::Contradicted
+        );
+        r.correspondences = 50;
+        assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Ok);
         assert_eq!(verdict(None, 0, false, &p).verdict, Verdict::Lost);
         assert_eq!(verdict(None, 10, true, &p).verdict, Verdict::Ok);
     }

@@ -12,9 +12,10 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, SearchWindow, Tracking, Verdict,
-    WindowMatch, align_endpoints, align_points, fit_score, fit_score_above, rotation_search,
-    score_sample, search_window, should_search, thin_points, verdict, window_search,
+    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, SearchWindow,
+    Tracking, Verdict, WindowMatch, align_endpoints, align_points, fit_score, fit_score_above,
+    rotation_search, score_sample, search_window, should_search, thin_points, verdict,
+    window_search,
 };
 use crate::config::Config;
 use crate::directions::main_directions;
@@ -413,7 +414,14 @@ impl Mapper {
             half_theta_rad: std::f64::consts::PI,
         };
         let loose = self.loose.all();
-        let found = window_search(&self.map, &loose, points, &window, None, &self.config.tracking)?;
+        let found = window_search(
+            &self.map,
+            &loose,
+            points,
+            &window,
+            None,
+            &self.config.tracking,
+        )?;
         std::iter::once(found.best)
             .chain(found.rival)
             .map(|c| run(c.map_from_robot))
@@ -468,6 +476,22 @@ impl Mapper {
         self.prev_pose = self
             .prev_pose
             .map(|p| delta(t.saturating_sub(1)).compose(&p));
+    }
+
+    /// A window over the whole map and the whole circle, for re-localizing a robot lost for a
+    /// while (it may have been carried anywhere); `None` for an empty map.
+    fn whole_map_window(&self, guess: &Pose2) -> Option<SearchWindow> {
+        let (lo, hi) = bounds(
+            self.map
+                .iter()
+                .flat_map(|(_, s)| [s.segment.start, s.segment.end]),
+        )?;
+        let center = (lo + hi) * 0.5;
+        Some(SearchWindow {
+            center: Pose2::new(center.x, center.y, guess.theta_rad),
+            half_xy_m: ((hi - lo) * 0.5).max_element(),
+            half_theta_rad: std::f64::consts::PI,
+        })
     }
 
     /// The constant-velocity guess, with the odometry prior, when it differs from the odometry
@@ -575,7 +599,12 @@ impl Mapper {
         ) {
             return (Some(result), None, false);
         }
-        let window = search_window(&guess, &anchor, self.lost_streak, tracking);
+        let every = tracking.relocalize_every_lost;
+        let global = every > 0 && self.lost_streak > 0 && self.lost_streak % every == 0;
+        let window = match global.then(|| self.whole_map_window(&guess)).flatten() {
+            Some(w) => w,
+            None => search_window(&guess, &anchor, self.lost_streak, tracking),
+        };
         let loose = self.loose.all();
         let seed = Some(result.map_from_robot);
         let Some(found) = window_search(&self.map, &loose, points, &window, seed, tracking) else {

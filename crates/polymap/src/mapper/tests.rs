@@ -203,3 +203,39 @@ fn a_bad_fit_far_from_the_map_keeps_its_icp_result() {
         u.map_from_robot
     );
 }
+
+/// A kidnapped robot: after mapping one end of the room it is carried 5 m away and turned; its
+/// scans are lost (not merged) until the whole-map search finds it again.
+#[test]
+#[ignore = "issue 10: the first carried scan fits 51 % of its points at a wrong pose (70 of 73 \
+            correspondences within 5 cm), so it is only `weak` and enters the map; the \
+            following scans then fit that copy. Needs a free-space check that works on \
+            cluttered maps (rays through map walls: 11-56 % median on the real logs)."]
+fn a_kidnapped_robot_is_lost_then_found_again() {
+    let walls = room();
+    let mut mapper = Mapper::new(Config::default());
+    for i in 0..40 {
+        let truth = Pose2::new(0.05 * i as f64, 0.0, 0.0);
+        mapper.push(&scan_from(&walls, &truth, i as f64 * 0.1));
+    }
+    let segments_before = mapper.map().len();
+    let carried = Pose2::new(7.5, 0.5, 150f64.to_radians());
+    let mut verdicts = Vec::new();
+    let mut last = Pose2::IDENTITY;
+    for k in 0..25 {
+        let u = mapper.push(&scan_from(&walls, &carried, 10.0 + k as f64 * 0.1));
+        verdicts.push(u.diagnostics.tracking.verdict);
+        last = u.map_from_robot;
+    }
+    let found = last.between(&carried);
+    assert!(
+        found.translation().length() < 0.1 && found.theta_rad.abs() < 0.02,
+        "not found again: {last:?} ({verdicts:?})"
+    );
+    assert_eq!(verdicts.last(), Some(&Verdict::Ok), "{verdicts:?}");
+    let summary = mapper.tracking_summary();
+    assert!(
+        summary.lost == 0 || mapper.map().len() <= segments_before + 30,
+        "lost scans entered the map"
+    );
+}
