@@ -4,7 +4,7 @@ use std::f64::consts::{FRAC_PI_4, PI, TAU};
 
 use polymap::geometry::{Segment, angle_between_directions_rad};
 use polymap_sim::raycast::RayCaster;
-use polymap_sim::{SimParams, SimRun, World, simulate};
+use polymap_sim::{SimRun, World, simulate};
 
 /// The worlds built to be bare in places: their scans may see only two parallel walls.
 const BARE: [&str; 1] = ["corridor"];
