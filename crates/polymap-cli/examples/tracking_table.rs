@@ -1,0 +1,57 @@
+//! Tracking on the simulated worlds (issue 10): per world and step K (every K-th scan), the
+//! ATE without odometry, with the odometry prior, and with the odometry prior on faulty
+//! odometry (slips, a 30 % heading bias, stalled wheels); the verdict counts without
+//! odometry; mapping speed; and the honesty check: scans whose tracked motion is more than
+//! 0.3 m off the truth, and how many of them were not flagged `weak` or `lost`.
+//!
+//! `cargo run --release -p polymap-cli --example tracking_table`
+
+#[allow(dead_code)]
+#[path = "../tests/it/tracking_support.rs"]
+mod tracking_support;
+
+use polymap::align::Verdict;
+use tracking_support::{WORLDS, config, map_every, simulate_world};
+
+/// A step error above this counts as a jump, metres.
+const JUMP_M: f64 = 0.3;
+
+fn main() {
+    println!(
+        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry | ok / weak / lost | jumps (unflagged) | scans/s |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for name in WORLDS {
+        let clean = simulate_world(name, false);
+        let faulty = simulate_world(name, true);
+        for every in [1, 5, 10] {
+            let plain = map_every(&clean, every, 0, config(false));
+            let odom = map_every(&clean, every, 0, config(true));
+            let bad = map_every(&faulty, every, 0, config(true));
+            let s = &plain.summary;
+            let jumps: Vec<usize> = plain
+                .step_errors_m()
+                .iter()
+                .enumerate()
+                .filter(|(i, e)| **e > JUMP_M && !plain.corrected[i + 1])
+                .map(|(i, _)| i + 1)
+                .collect();
+            let unflagged = jumps
+                .iter()
+                .filter(|&&i| plain.tracking[i].verdict == Verdict::Ok)
+                .count();
+            println!(
+                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} | {} / {} / {} | {} ({unflagged}) | {:.0} |",
+                plain.kept.len(),
+                plain.ate_all_m(),
+                odom.ate_all_m(),
+                bad.ate_all_m(),
+                s.ok,
+                s.weak,
+                s.lost,
+                jumps.len(),
+                plain.scans_per_s()
+            );
+        }
+    }
+}
