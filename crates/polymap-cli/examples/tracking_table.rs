@@ -11,14 +11,14 @@
 mod tracking_support;
 
 use polymap::align::Verdict;
-use tracking_support::{WORLDS, config, map_every, simulate_world};
+use tracking_support::{WORLDS, config, jumps, map_every, odometry_ate_m, simulate_world};
 
 /// A step error above this counts as a jump, metres.
 const JUMP_M: f64 = 0.3;
 
 fn main() {
     println!(
-        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry | ok / weak / lost | jumps (unflagged) | scans/s |"
+        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry (alone) | ok / weak / lost | jumps (unflagged) | scans/s |"
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for name in WORLDS {
@@ -29,23 +29,18 @@ fn main() {
             let odom = map_every(&clean, every, 0, config(true));
             let bad = map_every(&faulty, every, 0, config(true));
             let s = &plain.summary;
-            let jumps: Vec<usize> = plain
-                .step_errors_m()
-                .iter()
-                .enumerate()
-                .filter(|(i, e)| **e > JUMP_M && !plain.corrected[i + 1])
-                .map(|(i, _)| i + 1)
-                .collect();
+            let jumps = jumps(&plain, JUMP_M);
             let unflagged = jumps
                 .iter()
                 .filter(|&&i| plain.tracking[i].verdict == Verdict::Ok)
                 .count();
             println!(
-                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} | {} / {} / {} | {} ({unflagged}) | {:.0} |",
+                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {:.0} |",
                 plain.kept.len(),
                 plain.ate_all_m(),
                 odom.ate_all_m(),
                 bad.ate_all_m(),
+                odometry_ate_m(&faulty),
                 s.ok,
                 s.weak,
                 s.lost,

@@ -11,7 +11,7 @@
 use polymap::align::Verdict;
 
 use crate::tracking_support::{
-    Mapped, WORLDS, config, map_every, position_information, simulate_world,
+    Mapped, WORLDS, config, jumps, map_every, odometry_ate_m, position_information, simulate_world,
 };
 
 /// A scan is observable when at least this many returns constrain its worst direction.
@@ -150,4 +150,123 @@ fn hall360_is_accurate_throughout() {
     assert!(least >= OBSERVABLE, "hall360 is observable everywhere");
     assert!(ate <= ATE_OBSERVABLE_M, "hall360: ATE {ate:.3} m");
     assert_eq!(mapped.summary.weak + mapped.summary.lost, 0);
+}
+
+/// A jump in one run: world, K, odometry (none, clean, faulty), scan index, verdict.
+type Jump = (&'static str, usize, &'static str, usize, Verdict);
+
+/// Maps each world every `every`-th scan, without odometry and with the odometry prior on
+/// faulty odometry; returns every jump and the lost counts of the clean runs.
+fn jumps_over_worlds(every: usize) -> (Vec<Jump>, Vec<(&'static str, u32)>) {
+    let mut all = Vec::new();
+    let mut lost = Vec::new();
+    for name in WORLDS {
+        let runs = [
+            (
+                "none",
+                map_every(&simulate_world(name, false), every, 0, config(false)),
+            ),
+            (
+                "faulty",
+                map_every(&simulate_world(name, true), every, 0, config(true)),
+            ),
+        ];
+        for (odometry, mapped) in runs {
+            let j = jumps(&mapped, JUMP_M);
+            let skipped = mapped.corrected.iter().filter(|&&c| c).count();
+            eprintln!(
+                "{name} K={every} odometry {odometry}: {} scans, {} jumps > {JUMP_M} m ({} `ok`), {skipped} scans skipped (loop correction), ok/weak/lost {}/{}/{}, {:.0} scans/s",
+                mapped.kept.len(),
+                j.len(),
+                j.iter()
+                    .filter(|&&i| mapped.tracking[i].verdict == Verdict::Ok)
+                    .count(),
+                mapped.summary.ok,
+                mapped.summary.weak,
+                mapped.summary.lost,
+                mapped.scans_per_s()
+            );
+            all.extend(
+                j.iter()
+                    .map(|&i| (name, every, odometry, i, mapped.tracking[i].verdict)),
+            );
+            if odometry == "none" {
+                lost.push((name, mapped.summary.lost));
+            }
+        }
+    }
+    (all, lost)
+}
+
+/// Jumps whose scan was `ok`.
+fn silent(jumps: &[Jump]) -> Vec<Jump> {
+    jumps
+        .iter()
+        .copied()
+        .filter(|j| j.4 == Verdict::Ok)
+        .collect()
+}
+
+#[test]
+fn verdicts_are_honest_on_dense_runs_and_every_fifth_scan() {
+    let (dense, lost) = jumps_over_worlds(1);
+    let (fifth, _) = jumps_over_worlds(5);
+    let unflagged = silent(&[dense, fifth].concat());
+    assert!(unflagged.is_empty(), "jumps reported `ok`: {unflagged:?}");
+    assert!(
+        lost.iter().all(|&(_, n)| n == 0),
+        "clean dense runs lost scans: {lost:?}"
+    );
+}
+
+#[test]
+#[ignore = "issue 10: every 10th scan, 62 of 335 jumps > 0.3 m are `ok` without odometry (corridor 22 of 118, ring 15 of 164, office 25 of 53), 4 of 19 with faulty odometry (scan 6, where a slip starts, in corridor, hall360 and hallway45; ring scan 196)"]
+fn verdicts_are_honest_on_every_tenth_scan() {
+    let (tenth, _) = jumps_over_worlds(10);
+    let unflagged = silent(&tenth);
+    assert!(unflagged.is_empty(), "jumps reported `ok`: {unflagged:?}");
+}
+
+/// Slack on top of the 10 % (metres): half the issue's 0.10 m ATE target. A difference below
+/// it does not decide whether a run meets that target, and where the run without odometry
+/// is at a few millimetres (hall360 every 10th scan: 0.007 m) 10 % of it is below the
+/// laser's own 0.01 m noise.
+const ODOMETRY_SLACK_M: f64 = 0.05;
+
+#[test]
+fn faulty_odometry_does_not_make_the_odometry_prior_much_worse_than_none() {
+    let mut failures = Vec::new();
+    for name in WORLDS {
+        let (clean, faulty) = (simulate_world(name, false), simulate_world(name, true));
+        let dead_reckoning = odometry_ate_m(&faulty);
+        // The faults must matter, or the check says nothing.
+        assert!(
+            dead_reckoning > 1.0,
+            "{name}: faulty odometry alone is only {dead_reckoning:.3} m off"
+        );
+        for every in [1, 5, 10] {
+            let without = map_every(&clean, every, 0, config(false)).ate_all_m();
+            let with = map_every(&faulty, every, 0, config(true)).ate_all_m();
+            eprintln!(
+                "{name} K={every}: ATE {without:.3} m without odometry, {with:.3} m with faulty odometry (alone {dead_reckoning:.2} m)"
+            );
+            if with > 1.1 * without + ODOMETRY_SLACK_M {
+                failures.push((name, every, without, with));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "worse with odometry: {failures:?}");
+}
+
+#[test]
+fn simulate_lists_the_tracking_worlds() {
+    let out = crate::support::polymap(&["simulate", "--list"]);
+    let listed = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{}", crate::support::text(&out));
+    for name in ["corridor", "ring", "hall360"] {
+        assert!(
+            listed.lines().any(|l| l.starts_with(name)),
+            "{name} missing from:\n{listed}"
+        );
+    }
 }

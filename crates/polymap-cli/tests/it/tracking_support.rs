@@ -97,6 +97,37 @@ impl Mapped {
     }
 }
 
+/// ATE RMSE of the run's odometry alone (dead reckoning) after SE(2) alignment, metres.
+pub fn odometry_ate_m(run: &SimRun) -> f64 {
+    let pairs: Vec<PosePair> = run
+        .odometry_poses()
+        .into_iter()
+        .zip(run.true_poses_in_first_frame())
+        .enumerate()
+        .map(|(i, (estimate, truth))| PosePair {
+            stamp_s: i as f64,
+            estimate,
+            truth,
+        })
+        .collect();
+    absolute_trajectory_error(&pairs, AteAlignment::LeastSquares)
+        .map_or(f64::INFINITY, |a| a.position_m.rms)
+}
+
+/// Kept scans (indices into `kept`, after the first) whose tracked motion is more than
+/// `jump_m` off the true one, leaving out those during which loop closure moved the map
+/// (their tracked poses are in two frames).
+pub fn jumps(mapped: &Mapped, jump_m: f64) -> Vec<usize> {
+    mapped
+        .step_errors_m()
+        .iter()
+        .enumerate()
+        .map(|(i, &e)| (i + 1, e))
+        .filter(|&(i, e)| e > jump_m && !mapped.corrected[i])
+        .map(|(i, _)| i)
+        .collect()
+}
+
 /// Maps every `every`-th scan of `run` from `offset`.
 pub fn map_every(run: &SimRun, every: usize, offset: usize, config: Config) -> Mapped {
     let truth_all = run.true_poses_in_first_frame();
