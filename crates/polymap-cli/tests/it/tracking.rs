@@ -8,10 +8,12 @@
 //! ([`position_information`]), about the number of returns that constrain the worst
 //! direction. Two parallel walls give 0.
 
+use std::sync::Arc;
+
 use polymap::align::Verdict;
 
 use crate::tracking_support::{
-    Mapped, WORLDS, config, jumps, map_every, odometry_ate_m, position_information, simulate_world,
+    Mapped, WORLDS, jumps, mapped, odometry_ate_m, position_information, simulate_world,
 };
 
 /// A scan is observable when at least this many returns constrain its worst direction.
@@ -60,15 +62,14 @@ fn observable_stretches(info: &[f64]) -> Vec<std::ops::Range<usize>> {
 }
 
 /// A world mapped densely without odometry, with each scan's true position information.
-fn mapped_densely(name: &str) -> (Mapped, Vec<f64>) {
-    let run = simulate_world(name, false);
-    let info = position_information(&run);
-    (map_every(&run, 1, 0, config(false)), info)
+fn mapped_densely(name: &'static str) -> (Arc<Mapped>, Vec<f64>) {
+    let info = position_information(&simulate_world(name, false));
+    (mapped(name, 1, false, false), info)
 }
 
 /// Every bare scan (but the first, which starts the map and cannot be wrong) is `weak` or
 /// `lost`. Returns the number of bare scans.
-fn check_bare_scans_flagged(name: &str) -> usize {
+fn check_bare_scans_flagged(name: &'static str) -> usize {
     let (mapped, info) = mapped_densely(name);
     let bare: Vec<usize> = bare_scans(&info).into_iter().filter(|&i| i > 0).collect();
     let silent: Vec<usize> = bare
@@ -94,7 +95,7 @@ fn check_bare_scans_flagged(name: &str) -> usize {
 }
 
 /// Every observable stretch, aligned on its own, has an ATE within the target.
-fn check_observable_stretches(name: &str) {
+fn check_observable_stretches(name: &'static str) {
     let (mapped, info) = mapped_densely(name);
     let ates: Vec<(std::ops::Range<usize>, f64)> = observable_stretches(&info)
         .into_iter()
@@ -141,9 +142,8 @@ fn ring_is_accurate_where_observable() {
 
 #[test]
 fn hall360_is_accurate_throughout() {
-    let run = simulate_world("hall360", false);
-    let info = position_information(&run);
-    let mapped = map_every(&run, 1, 0, config(false));
+    let info = position_information(&simulate_world("hall360", false));
+    let mapped = mapped("hall360", 1, false, false);
     let ate = mapped.ate_all_m();
     let least = info.iter().copied().fold(f64::INFINITY, f64::min);
     eprintln!("hall360: ATE {ate:.3} m, least information {least:.1}");
@@ -162,14 +162,8 @@ fn jumps_over_worlds(every: usize) -> (Vec<Jump>, Vec<(&'static str, u32)>) {
     let mut lost = Vec::new();
     for name in WORLDS {
         let runs = [
-            (
-                "none",
-                map_every(&simulate_world(name, false), every, 0, config(false)),
-            ),
-            (
-                "faulty",
-                map_every(&simulate_world(name, true), every, 0, config(true)),
-            ),
+            ("none", mapped(name, every, false, false)),
+            ("faulty", mapped(name, every, true, true)),
         ];
         for (odometry, mapped) in runs {
             let j = jumps(&mapped, JUMP_M);
@@ -237,16 +231,15 @@ const ODOMETRY_SLACK_M: f64 = 0.05;
 fn faulty_odometry_does_not_make_the_odometry_prior_much_worse_than_none() {
     let mut failures = Vec::new();
     for name in WORLDS {
-        let (clean, faulty) = (simulate_world(name, false), simulate_world(name, true));
-        let dead_reckoning = odometry_ate_m(&faulty);
+        let dead_reckoning = odometry_ate_m(&simulate_world(name, true));
         // The faults must matter, or the check says nothing.
         assert!(
             dead_reckoning > 1.0,
             "{name}: faulty odometry alone is only {dead_reckoning:.3} m off"
         );
         for every in [1, 5, 10] {
-            let without = map_every(&clean, every, 0, config(false)).ate_all_m();
-            let with = map_every(&faulty, every, 0, config(true)).ate_all_m();
+            let without = mapped(name, every, false, false).ate_all_m();
+            let with = mapped(name, every, true, true).ate_all_m();
             eprintln!(
                 "{name} K={every}: ATE {without:.3} m without odometry, {with:.3} m with faulty odometry (alone {dead_reckoning:.2} m)"
             );

@@ -4,6 +4,8 @@
 //!
 //! Shared by the tests in `tracking.rs` and by `examples/tracking_table.rs`.
 
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use polymap::align::Tracking;
@@ -126,6 +128,33 @@ pub fn jumps(mapped: &Mapped, jump_m: f64) -> Vec<usize> {
         .filter(|&(i, e)| e > jump_m && !mapped.corrected[i])
         .map(|(i, _)| i)
         .collect()
+}
+
+/// A mapping run of a built-in world: which world, every how many scans, faulty odometry or
+/// not, with the odometry prior or not.
+pub type RunKey = (&'static str, usize, bool, bool);
+
+/// Runs already mapped, shared by the tests (they run in parallel and ask for the same runs).
+static MAPPED: Mutex<Option<HashMap<RunKey, Arc<Mapped>>>> = Mutex::new(None);
+
+/// Maps every `every`-th scan (from the first) of world `name` (`faulty` odometry or not)
+/// with the odometry prior or without, once per test binary.
+pub fn mapped(name: &'static str, every: usize, faulty: bool, odometry: bool) -> Arc<Mapped> {
+    let key = (name, every, faulty, odometry);
+    let cached = |m: &Mutex<Option<HashMap<RunKey, Arc<Mapped>>>>| {
+        let guard = m.lock().unwrap_or_else(|e| e.into_inner());
+        guard.as_ref().and_then(|h| h.get(&key).cloned())
+    };
+    if let Some(m) = cached(&MAPPED) {
+        return m;
+    }
+    let run = simulate_world(name, faulty);
+    let m = Arc::new(map_every(&run, every, 0, config(odometry)));
+    let mut guard = MAPPED.lock().unwrap_or_else(|e| e.into_inner());
+    guard
+        .get_or_insert_with(HashMap::new)
+        .insert(key, m.clone());
+    m
 }
 
 /// Maps every `every`-th scan of `run` from `offset`.
