@@ -2,7 +2,9 @@
 //! ATE without odometry, with the odometry prior, and with the odometry prior on faulty
 //! odometry (slips, a 30 % heading bias, stalled wheels); the verdict counts without
 //! odometry; mapping speed; and the honesty check: scans whose tracked motion is more than
-//! 0.3 m off the truth, and how many of them were not flagged `weak` or `lost`.
+//! 0.3 m off the truth, and how many of them were not flagged `weak` or `lost`; silent
+//! drifts: scans ending a stretch of at most 2 m of travel, all `ok`, over which the tracked
+//! motion is more than 0.3 m off.
 //!
 //! `cargo run --release -p polymap-cli --example tracking_table`
 
@@ -11,16 +13,18 @@
 mod tracking_support;
 
 use polymap::align::Verdict;
-use tracking_support::{WORLDS, config, jumps, map_every, odometry_ate_m, simulate_world};
+use tracking_support::{
+    WORLDS, config, jumps, map_every, odometry_ate_m, silent_drifts, simulate_world,
+};
 
 /// A step error above this counts as a jump, metres.
 const JUMP_M: f64 = 0.3;
 
 fn main() {
     println!(
-        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry (alone) | ok / weak / lost | jumps (unflagged) | scans/s |"
+        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry (alone) | ok / weak / lost | jumps (unflagged) | silent drifts | scans/s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for name in WORLDS {
         let clean = simulate_world(name, false);
         let faulty = simulate_world(name, true);
@@ -35,7 +39,7 @@ fn main() {
                 .filter(|&&i| plain.tracking[i].verdict == Verdict::Ok)
                 .count();
             println!(
-                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {:.0} |",
+                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {} | {:.0} |",
                 plain.kept.len(),
                 plain.ate_all_m(),
                 odom.ate_all_m(),
@@ -45,6 +49,7 @@ fn main() {
                 s.weak,
                 s.lost,
                 jumps.len(),
+                silent_drifts(&plain, 2.0, JUMP_M).len(),
                 plain.scans_per_s()
             );
         }

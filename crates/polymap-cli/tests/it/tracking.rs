@@ -13,7 +13,8 @@ use std::sync::Arc;
 use polymap::align::Verdict;
 
 use crate::tracking_support::{
-    Mapped, WORLDS, jumps, mapped, odometry_ate_m, position_information, simulate_world,
+    Mapped, WORLDS, jumps, mapped, odometry_ate_m, position_information, silent_drifts,
+    simulate_world,
 };
 
 /// A scan is observable when at least this many returns constrain its worst direction.
@@ -219,6 +220,30 @@ fn verdicts_are_honest_on_every_tenth_scan() {
     let (tenth, _) = jumps_over_worlds(10);
     let unflagged = silent(&tenth);
     assert!(unflagged.is_empty(), "jumps reported `ok`: {unflagged:?}");
+}
+
+/// Travel over which a creeping error is measured, metres.
+const DRIFT_SPAN_M: f64 = 2.0;
+
+#[test]
+#[ignore = "issue 10: silent drifts (over at most 2 m of travel, all scans `ok`, tracked motion > 0.3 m off) without odometry: corridor 21 and ring 30 every scan, office 14 every 10th scan"]
+fn errors_do_not_creep_in_unflagged() {
+    // A jump test misses an error that creeps in by a few centimetres per scan (a corridor
+    // shortened as it is driven); over 2 m of travel such scans must not all be `ok`.
+    let mut found = Vec::new();
+    for name in WORLDS {
+        for every in [1, 5, 10] {
+            let drifts = silent_drifts(&mapped(name, every, false, false), DRIFT_SPAN_M, JUMP_M);
+            eprintln!("{name} K={every}: {} silent drifts", drifts.len());
+            if let Some(&first) = drifts.first() {
+                found.push((name, every, drifts.len(), first));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "(world, K, silent drifts, first scan): {found:?}"
+    );
 }
 
 /// Slack on top of the 10 % (metres): half the issue's 0.10 m ATE target. A difference below

@@ -8,7 +8,7 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use polymap::align::Tracking;
+use polymap::align::{Tracking, Verdict};
 use polymap::config::Config;
 use polymap::geometry::{Pose2, Segment, Vec2};
 use polymap::mapper::{Mapper, MotionPrior, TrackingSummary};
@@ -155,6 +155,30 @@ pub fn mapped(name: &'static str, every: usize, faulty: bool, odometry: bool) ->
         .get_or_insert_with(HashMap::new)
         .insert(key, m.clone());
     m
+}
+
+/// Kept scans `i` (indices into `kept`) that end a silent drift: the tracked motion from the
+/// earliest kept scan within `span_m` of true travel before `i` is more than `drift_m` off
+/// the true one, yet every scan after that one up to `i` is `ok` and no loop correction
+/// happened. Catches errors that creep in by less than a jump per scan.
+pub fn silent_drifts(mapped: &Mapped, span_m: f64, drift_m: f64) -> Vec<usize> {
+    let travelled: Vec<f64> = std::iter::once(0.0)
+        .chain(mapped.truth.windows(2).scan(0.0, |acc, w| {
+            *acc += (w[1].translation() - w[0].translation()).length();
+            Some(*acc)
+        }))
+        .collect();
+    let quiet = |i: usize| mapped.tracking[i].verdict == Verdict::Ok && !mapped.corrected[i];
+    (1..mapped.kept.len())
+        .filter(|&i| {
+            let j = (0..i)
+                .find(|&j| travelled[i] - travelled[j] <= span_m)
+                .unwrap_or(i - 1);
+            let est = mapped.tracked[j].between(&mapped.tracked[i]);
+            let tru = mapped.truth[j].between(&mapped.truth[i]);
+            (est.translation() - tru.translation()).length() > drift_m && (j + 1..=i).all(quiet)
+        })
+        .collect()
 }
 
 /// Maps every `every`-th scan of `run` from `offset`.
