@@ -6,6 +6,9 @@
 //! drifts: scans ending a stretch of at most 2 m of travel, all `ok`, over which the tracked
 //! motion is more than 0.3 m off.
 //!
+//! A second table runs every phase (offset 0 … K−1) at K = 5 and 10 without odometry: the
+//! mean and worst ATE over the phases, and the jumps over all of them.
+//!
 //! `cargo run --release -p polymap-cli --example tracking_table`
 
 #[allow(dead_code)]
@@ -51,6 +54,40 @@ fn main() {
                 jumps.len(),
                 silent_drifts(&plain, 2.0, JUMP_M).len(),
                 plain.scans_per_s()
+            );
+        }
+    }
+    phases();
+}
+
+/// Every phase of K = 5 and 10, without odometry.
+fn phases() {
+    println!();
+    println!(
+        "| world | K | ATE m, mean over phases | worst phase | jumps (unflagged), all phases | lost |"
+    );
+    println!("|---|---|---|---|---|---|");
+    for name in WORLDS {
+        let clean = simulate_world(name, false);
+        for every in [5, 10] {
+            let runs: Vec<_> = (0..every)
+                .map(|offset| map_every(&clean, every, offset, config(false)))
+                .collect();
+            let ates: Vec<f64> = runs.iter().map(|m| m.ate_all_m()).collect();
+            let (mut total, mut unflagged) = (0, 0);
+            for m in &runs {
+                let j = jumps(m, JUMP_M);
+                total += j.len();
+                unflagged += j
+                    .iter()
+                    .filter(|&&i| m.tracking[i].verdict == Verdict::Ok)
+                    .count();
+            }
+            let lost: u32 = runs.iter().map(|m| m.summary.lost).sum();
+            println!(
+                "| {name} | {every} | {:.3} | {:.3} | {total} ({unflagged}) | {lost} |",
+                ates.iter().sum::<f64>() / ates.len() as f64,
+                ates.iter().copied().fold(0.0, f64::max)
             );
         }
     }
