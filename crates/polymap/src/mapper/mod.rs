@@ -12,10 +12,9 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, SearchWindow,
-    Tracking, Verdict, WindowMatch, align_endpoints, align_points, fit_score, fit_score_above,
-    rotation_search, score_sample, search_window, should_search, thin_points, verdict,
-    window_search,
+    AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, SearchWindow, Tracking, Verdict,
+    WindowMatch, align_endpoints, align_points, fit_score, fit_score_above, rotation_search,
+    score_sample, search_window, should_search, thin_points, verdict, window_search,
 };
 use crate::config::Config;
 use crate::directions::main_directions;
@@ -414,14 +413,7 @@ impl Mapper {
             half_theta_rad: std::f64::consts::PI,
         };
         let loose = self.loose.all();
-        let found = window_search(
-            &self.map,
-            &loose,
-            points,
-            &window,
-            None,
-            &self.config.tracking,
-        )?;
+        let found = window_search(&self.map, &loose, points, &window, None, &self.config.tracking)?;
         std::iter::once(found.best)
             .chain(found.rival)
             .map(|c| run(c.map_from_robot))
