@@ -7,7 +7,7 @@ use polymap::map::MapSegment;
 use polymap_io::carmen::write_flaser_log;
 use polymap_io::map_json::{FRAME_FIRST_SCAN, MapJson, write_map_json};
 use polymap_io::tum::{StampedPose, write_tum};
-use polymap_sim::{SimParams, SimRun, World, simulate, world_by_name};
+use polymap_sim::{SimRun, World, simulate, world_by_name};
 use serde_json::json;
 
 use crate::args::SimulateArgs;
@@ -47,7 +47,7 @@ pub fn simulate_to(name: &str, dir: &Path, seed: u64) -> Result<SimFiles> {
     let names: Vec<String> = World::catalogue().into_iter().map(|w| w.name).collect();
     let world = world_by_name(name)
         .ok_or_else(|| anyhow!("unknown world {name:?}; known: {}", names.join(", ")))?;
-    let run = simulate(&world, &SimParams::default(), seed);
+    let run = simulate(&world, &world.sim_params(), seed);
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let files = SimFiles {
         log: dir.join(format!("{name}.clf")),

@@ -1,17 +1,17 @@
-//! Simulates every built-in world at default parameters and prints a line of statistics each:
+//! Simulates every built-in world with its own laser and default parameters otherwise and prints a line of statistics each:
 //! size, walls, path length, scans, clearance, share of valid returns, drift, and time taken.
 //!
 //! `cargo run --release -p polymap-sim --example sim_stats`
 
 use std::time::Instant;
 
-use polymap_sim::{SimParams, World, simulate};
+use polymap::geometry::normalize_angle_rad;
+use polymap_sim::{World, simulate};
 
 fn main() {
-    let params = SimParams::default();
     for world in World::catalogue() {
         let t0 = Instant::now();
-        let run = simulate(&world, &params, 1);
+        let run = simulate(&world, &world.sim_params(), 1);
         let elapsed_s = t0.elapsed().as_secs_f64();
         let (lo, hi) = world.bounds().unwrap_or_default();
         let size = hi - lo;
@@ -29,7 +29,7 @@ fn main() {
         ) {
             (Some(o), Some(t)) => (
                 (o.translation() - t.translation()).length(),
-                (o.theta_rad - t.theta_rad).to_degrees(),
+                normalize_angle_rad(o.theta_rad - t.theta_rad).to_degrees(),
             ),
             _ => (0.0, 0.0),
         };

@@ -161,6 +161,7 @@ mod tests {
             walls: vec![Segment::new(Vec2::new(5.0, -100.0), Vec2::new(5.0, 100.0))],
             pillars: vec![],
             waypoints: vec![],
+            laser: Default::default(),
         }
     }
 

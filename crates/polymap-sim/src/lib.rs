@@ -9,7 +9,10 @@
 //! The parts, in the order a run uses them:
 //!
 //! - [`world`]: [`World`] (walls, pillars, waypoints) and the catalogue of built-in worlds:
-//!   [`World::hallway45`] (default), [`World::hex60`], [`World::clutter`], [`World::office`].
+//!   [`World::hallway45`] (default), [`World::hex60`], [`World::clutter`], [`World::office`],
+//!   and three that make tracking hard: [`World::corridor`] (bare in the middle),
+//!   [`World::ring`] (a pillar and a box its only features), [`World::hall360`] (360° laser).
+//!   Each world names the laser it is seen with ([`World::sim_params`]).
 //! - [`path`]: waypoints → a smooth, speed- and turn-rate-limited trajectory.
 //! - [`raycast`]: nearest hit along a ray; a grid-accelerated [`RayCaster`] and a brute-force
 //!   oracle.

@@ -89,6 +89,8 @@ struct Rule {
 const NON_NEGATIVE: &str = "a finite value >= 0";
 const FINITE: &str = "a finite value";
 const BIAS: &str = "a value in (-0.5, 0.5)";
+const PROBABILITY: &str = "a probability in [0, 1]";
+const STEPS: &str = "1 to 1000000 steps";
 
 /// Finite and strictly positive.
 fn positive(x: f64) -> bool {
@@ -133,7 +135,7 @@ fn rules() -> Vec<Rule> {
         "laser.angle_min_rad": laser.angle_min_rad as f64, finite, FINITE;
         "laser.max_range_m": laser.max_range_m as f64, |x| positive(x) && x <= 10_000.0, "a value in (0, 10000]";
         "laser.range_sigma_m": laser.range_sigma_m as f64, non_negative, NON_NEGATIVE;
-        "laser.dropout_probability": laser.dropout_probability as f64, |x| (0.0..=1.0).contains(&x), "a probability in [0, 1]";
+        "laser.dropout_probability": laser.dropout_probability as f64, |x| (0.0..=1.0).contains(&x), PROBABILITY;
         "laser.bearing_sigma_rad": laser.bearing_sigma_rad as f64, non_negative, NON_NEGATIVE;
         "laser.robot_from_laser.x_m": laser.robot_from_laser.x_m as f64, finite, FINITE;
         "laser.robot_from_laser.y_m": laser.robot_from_laser.y_m as f64, finite, FINITE;
@@ -149,6 +151,13 @@ fn rules() -> Vec<Rule> {
         "odometry.lateral_sigma_frac": odometry.lateral_sigma_frac as f64, non_negative, NON_NEGATIVE;
         "odometry.translation_sigma_m": odometry.translation_sigma_m as f64, non_negative, NON_NEGATIVE;
         "odometry.rotation_sigma_rad": odometry.rotation_sigma_rad as f64, non_negative, NON_NEGATIVE;
+        "odometry.faults.slip_probability": odometry.faults.slip_probability as f64, |x| (0.0..=1.0).contains(&x), PROBABILITY;
+        "odometry.faults.slip_steps": odometry.faults.slip_steps as u32, |x| (1.0..=1e6).contains(&x), STEPS;
+        "odometry.faults.slip_max_factor": odometry.faults.slip_max_factor as f64, |x| (0.0..=100.0).contains(&x), "a value in [0, 100]";
+        "odometry.faults.turn_bias_frac": odometry.faults.turn_bias_frac as f64, |x| (-1.0..=10.0).contains(&x), "a value in [-1, 10]";
+        "odometry.faults.stall_probability": odometry.faults.stall_probability as f64, |x| (0.0..=1.0).contains(&x), PROBABILITY;
+        "odometry.faults.stall_steps": odometry.faults.stall_steps as u32, |x| (1.0..=1e6).contains(&x), STEPS;
+        "odometry.faults.wheel_base_m": odometry.faults.wheel_base_m as f64, |x| positive(x) && x <= 100.0, "a value in (0, 100]";
     }
 }
 
@@ -196,6 +205,9 @@ mod tests {
             (r.set)(&mut p, f64::NAN);
             if r.field == "laser.num_beams" {
                 p.laser.num_beams = 0;
+            }
+            if r.field.ends_with("_steps") {
+                assert_eq!((r.get)(&p), 0.0, "NaN as u32 is 0: {}", r.field);
             }
             assert_eq!(p.validate().map_err(|e| e.field), Err(r.field));
             assert_eq!(p.sanitized(), SimParams::default(), "{}", r.field);

@@ -115,6 +115,7 @@ fn hit(origin: Vec2, dir: Vec2, range_m: f64, obstacle: Obstacle) -> RayHit {
 ///     walls: vec![Segment::new(Vec2::new(2.0, -5.0), Vec2::new(2.0, 5.0))],
 ///     pillars: vec![],
 ///     waypoints: vec![],
+///     laser: Default::default(),
 /// };
 /// let hit = cast_ray_brute(&world, Vec2::ZERO, std::f64::consts::FRAC_PI_4, 30.0).unwrap();
 /// assert!((hit.range_m - 2.0 * 2f64.sqrt()).abs() < 1e-12);

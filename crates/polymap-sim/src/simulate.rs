@@ -18,6 +18,8 @@ use crate::world::World;
 const LASER_STREAM: u64 = 1;
 /// ChaCha stream for the odometry's noise.
 const ODOMETRY_STREAM: u64 = 2;
+/// ChaCha stream for the odometry's faults.
+const ODOMETRY_FAULT_STREAM: u64 = 3;
 
 /// A simulated log with its ground truth.
 ///
@@ -137,6 +139,7 @@ pub fn simulate(world: &World, params: &SimParams, seed: u64) -> SimRun {
         &true_poses,
         &params.odometry,
         &mut rng(seed, ODOMETRY_STREAM),
+        &mut rng(seed, ODOMETRY_FAULT_STREAM),
     );
     let caster = RayCaster::new(world);
     let mut laser_rng = rng(seed, LASER_STREAM);

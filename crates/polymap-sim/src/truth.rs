@@ -144,6 +144,7 @@ mod tests {
                 radius_m: 0.5,
             }],
             waypoints: vec![],
+            laser: Default::default(),
         }
     }
 

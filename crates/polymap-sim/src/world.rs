@@ -7,6 +7,8 @@ use std::f64::consts::TAU;
 use polymap::geometry::{Pose2, Segment, Vec2};
 use serde::{Deserialize, Serialize};
 
+use crate::laser::LaserParams;
+use crate::params::SimParams;
 use crate::worlds;
 
 /// Target side length of the polygon that stands in for a pillar in the ground-truth walls, metres.
@@ -91,6 +93,7 @@ impl Pillar {
 ///     ],
 ///     pillars: vec![],
 ///     waypoints: vec![Vec2::new(1.0, 1.0), Vec2::new(2.0, 2.0)],
+///     laser: Default::default(),
 /// };
 /// assert_eq!(world.clearance_m(Vec2::new(1.0, 1.0)), 1.0);
 /// assert_eq!(world.total_wall_length_m(), 8.0);
@@ -107,6 +110,10 @@ pub struct World {
     pub pillars: Vec<Pillar>,
     /// The robot's tour, metres, world frame; [`crate::path::trajectory`] smooths it.
     pub waypoints: Vec<Vec2>,
+    /// The laser the world is meant to be seen with ([`World::sim_params`] puts it into the
+    /// default parameters). Default [`LaserParams::default`] (180°, 30 m).
+    #[serde(default)]
+    pub laser: LaserParams,
 }
 
 /// Name of the world mapped when no log is given: [`World::hallway45`].
@@ -140,19 +147,57 @@ impl World {
         worlds::office::build()
     }
 
+    /// A 40 m corridor, bare but for features at its two ends, seen with a 10 m laser: along
+    /// most of it the motion along the corridor is unobservable.
+    pub fn corridor() -> World {
+        worlds::corridor::build()
+    }
+
+    /// A rectangular ring hallway whose only features are one round pillar and one box (180°
+    /// laser, 20 m range).
+    pub fn ring() -> World {
+        worlds::ring::build()
+    }
+
+    /// An L-shaped hall with pillars and boxes, mapped by a 360° laser; the tour turns on the
+    /// spot.
+    pub fn hall360() -> World {
+        worlds::hall360::build()
+    }
+
     /// The names of the built-in worlds, default first.
-    pub fn names() -> [&'static str; 4] {
-        ["hallway45", "hex60", "clutter", "office"]
+    pub fn names() -> [&'static str; 7] {
+        [
+            "hallway45",
+            "hex60",
+            "clutter",
+            "office",
+            "corridor",
+            "ring",
+            "hall360",
+        ]
     }
 
     /// Every built-in world, default first.
     pub fn catalogue() -> Vec<World> {
-        vec![
-            World::hallway45(),
-            World::hex60(),
-            World::clutter(),
-            World::office(),
-        ]
+        World::names()
+            .into_iter()
+            .filter_map(World::by_name)
+            .collect()
+    }
+
+    /// The default simulation parameters with this world's laser ([`World::laser`]).
+    ///
+    /// ```
+    /// use polymap_sim::World;
+    /// assert_eq!(World::ring().sim_params().laser.max_range_m, 20.0);
+    /// assert_eq!(World::office().sim_params(), polymap_sim::SimParams::default());
+    /// ```
+    pub fn sim_params(&self) -> SimParams {
+        SimParams {
+            laser: self.laser.clone(),
+            ..SimParams::default()
+        }
     }
 
     /// A built-in world by name, or `None` for an unknown name.
@@ -168,6 +213,9 @@ impl World {
             "hex60" => Some(World::hex60()),
             "clutter" => Some(World::clutter()),
             "office" => Some(World::office()),
+            "corridor" => Some(World::corridor()),
+            "ring" => Some(World::ring()),
+            "hall360" => Some(World::hall360()),
             _ => None,
         }
     }
@@ -227,6 +275,7 @@ impl World {
                 .iter()
                 .map(|&p| new_from_world.transform_point(p))
                 .collect(),
+            laser: self.laser.clone(),
         }
     }
 

@@ -68,6 +68,7 @@ fn bremen_like() -> World {
             centre[3],
             Vec2::new(29.0, 23.0),
         ],
+        laser: Default::default(),
     }
 }
 

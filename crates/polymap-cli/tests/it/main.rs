@@ -4,4 +4,6 @@ mod cli;
 mod datasets;
 mod fig7;
 mod support;
+mod tracking;
+mod tracking_support;
 mod worlds;

@@ -6,7 +6,7 @@ use std::process::{Command, Output};
 use polymap::config::Config;
 use polymap::geometry::Pose2;
 use polymap::mapper::{Mapper, Update};
-use polymap_sim::{SimParams, SimRun, simulate, world_by_name};
+use polymap_sim::{SimRun, simulate, world_by_name};
 
 /// Runs the `polymap` binary with arguments.
 pub fn polymap(args: &[&str]) -> Output {
@@ -39,13 +39,11 @@ pub fn text(o: &Output) -> String {
     )
 }
 
-/// A simulated run of a named world with the default parameters and seed 1.
+/// A simulated run of a named world with its default parameters (`World::sim_params`) and
+/// seed 1.
 pub fn sim(name: &str) -> SimRun {
-    simulate(
-        &world_by_name(name).expect("a built-in world"),
-        &SimParams::default(),
-        1,
-    )
+    let world = world_by_name(name).expect("a built-in world");
+    simulate(&world, &world.sim_params(), 1)
 }
 
 /// Maps every scan of a run; returns the mapper and each scan's update.

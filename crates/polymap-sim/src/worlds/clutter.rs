@@ -80,5 +80,6 @@ pub(crate) fn build() -> World {
             v(2.5, 6.5),
             v(6.0, 3.2),
         ],
+        laser: Default::default(),
     }
 }

@@ -77,5 +77,6 @@ pub(crate) fn build() -> World {
         walls,
         pillars: vec![],
         waypoints,
+        laser: Default::default(),
     }
 }

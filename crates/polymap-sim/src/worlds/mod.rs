@@ -2,6 +2,9 @@
 
 pub(crate) mod build;
 pub(crate) mod clutter;
+pub(crate) mod corridor;
+pub(crate) mod hall360;
 pub(crate) mod hallway45;
 pub(crate) mod hex60;
 pub(crate) mod office;
+pub(crate) mod ring;

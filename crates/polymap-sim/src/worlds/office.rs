@@ -87,5 +87,6 @@ pub(crate) fn build() -> World {
             v(0.0, 0.0),
             v(4.0, 0.0),
         ],
+        laser: Default::default(),
     }
 }

@@ -14,6 +14,7 @@ fn world(walls: Vec<Segment>, pillars: Vec<Pillar>) -> World {
         walls,
         pillars,
         waypoints: vec![],
+        laser: Default::default(),
     }
 }
 

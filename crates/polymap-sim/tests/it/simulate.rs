@@ -185,11 +185,13 @@ fn degenerate_worlds_give_empty_or_tiny_runs() {
         walls: vec![],
         pillars: vec![],
         waypoints: vec![],
+        laser: Default::default(),
     };
     let r = simulate(&empty, &SimParams::default(), 0);
     assert!(r.scans.is_empty() && r.walls_seen.is_empty());
     let dot = World {
         waypoints: vec![polymap::geometry::Vec2::ONE],
+        laser: Default::default(),
         ..empty
     };
     let r = simulate(&dot, &SimParams::default(), 0);

@@ -4,10 +4,13 @@ use std::f64::consts::{FRAC_PI_4, PI, TAU};
 
 use polymap::geometry::{Segment, angle_between_directions_rad};
 use polymap_sim::raycast::RayCaster;
-use polymap_sim::{SimParams, SimRun, World, simulate};
+use polymap_sim::{SimRun, World, simulate};
+
+/// The worlds built to be bare in places: their scans may see only two parallel walls.
+const BARE: [&str; 1] = ["corridor"];
 
 fn run(w: &World) -> SimRun {
-    simulate(w, &SimParams::default(), 11)
+    simulate(w, &w.sim_params(), 11)
 }
 
 /// Distinct undirected wall directions, degrees, rounded to 0.1°.
@@ -63,8 +66,14 @@ fn scans_have_a_good_share_of_valid_returns() {
         let beams: usize = r.scans.iter().map(|s| s.ranges_m.len()).sum();
         let valid: usize = r.scans.iter().map(|s| s.valid_count()).sum();
         let worst = r.scans.iter().map(|s| s.valid_count()).min().unwrap_or(0);
+        // The corridor's 10 m laser looks down a 42 m corridor: the beams along it miss.
+        let share = if BARE.contains(&w.name.as_str()) {
+            0.9
+        } else {
+            0.95
+        };
         assert!(
-            valid as f64 > 0.95 * beams as f64,
+            valid as f64 > share * beams as f64,
             "{}: {valid}/{beams}",
             w.name
         );
@@ -78,7 +87,7 @@ fn tours_are_long_and_return_near_the_start() {
         let r = run(&w);
         let (first, last) = (r.true_poses[0], r.true_poses[r.true_poses.len() - 1]);
         assert!(
-            r.path_length_m() > 55.0 && r.path_length_m() < 100.0,
+            r.path_length_m() > 55.0 && r.path_length_m() < 130.0,
             "{}: {}",
             w.name,
             r.path_length_m()
@@ -221,8 +230,11 @@ fn walls_seen_are_sensible() {
 #[test]
 fn every_world_has_structure_in_every_scan() {
     // A scan sees corners or short walls, not just two parallel lines: in each scan, the
-    // returned beams hit at least three distinct walls.
+    // returned beams hit at least three distinct walls. Not so in the bare worlds.
     for w in World::catalogue() {
+        if BARE.contains(&w.name.as_str()) {
+            continue;
+        }
         let r = run(&w);
         let caster = RayCaster::new(&w);
         for p in r.true_poses.iter().step_by(10) {
@@ -241,6 +253,40 @@ fn every_world_has_structure_in_every_scan() {
             assert!(hit.len() >= 3, "{} at {:?}: {} walls", w.name, p, hit.len());
         }
     }
+}
+
+#[test]
+fn the_corridor_middle_shows_only_two_walls_within_laser_range() {
+    let w = World::corridor();
+    let r = run(&w);
+    let caster = RayCaster::new(&w);
+    let range = r.params.laser.max_range_m;
+    let walls_seen_at = |p: &polymap::geometry::Pose2| {
+        let mut hit: Vec<_> = (0..180)
+            .filter_map(|k| {
+                caster.cast(
+                    p.translation(),
+                    p.theta_rad - PI / 2.0 + k as f64 * PI / 180.0,
+                    range,
+                )
+            })
+            .map(|h| format!("{:?}", h.obstacle))
+            .collect();
+        hit.sort();
+        hit.dedup();
+        hit.len()
+    };
+    let bare = r
+        .true_poses
+        .iter()
+        .filter(|p| walls_seen_at(p) == 2)
+        .count();
+    // Over 20 m each way at 0.05 m per scan: several hundred bare scans.
+    assert!(
+        bare > 500,
+        "{bare} of {} scans see two walls",
+        r.scans.len()
+    );
 }
 
 #[test]

@@ -1,0 +1,290 @@
+//! Tracking on worlds built to make it hard (issue 10), against ground truth: where the true
+//! geometry pins the robot down the trajectory is accurate, where it does not the scans say so
+//! (`weak` or `lost`), a scan whose tracked motion jumps away from the truth is never `ok`,
+//! and faulty odometry does not make the odometry prior much worse than none.
+//!
+//! Observability comes from the truth, not from the mapper: per scan, the smaller eigenvalue
+//! of `Σ n nᵀ` over its returns, `n` the normal of the true wall each hits
+//! ([`position_information`]), about the number of returns that constrain the worst
+//! direction. Two parallel walls give 0.
+
+use std::sync::Arc;
+
+use polymap::align::Verdict;
+
+use crate::tracking_support::{
+    Mapped, WORLDS, jumps, mapped, odometry_ate_m, position_information, silent_drifts,
+    simulate_world,
+};
+
+/// A scan is observable when at least this many returns constrain its worst direction.
+const OBSERVABLE: f64 = 10.0;
+/// A scan is bare when fewer than this many do (a stray return near a corner, no more).
+const BARE: f64 = 1.0;
+/// Scans on either side of a bare scan that must be bare too for it to count (the tracker
+/// and this measure need not agree on the exact scan where a feature leaves the laser's view).
+const BARE_MARGIN_SCANS: usize = 10;
+/// Shortest observable stretch whose ATE is checked, scans.
+const MIN_STRETCH_SCANS: usize = 30;
+/// The issue's target: ATE where the motion is observable, metres.
+const ATE_OBSERVABLE_M: f64 = 0.10;
+/// A tracked step this far from the true one is a jump, metres.
+const JUMP_M: f64 = 0.3;
+
+/// Scans that are bare, with their neighbours.
+fn bare_scans(info: &[f64]) -> Vec<usize> {
+    (0..info.len())
+        .filter(|&i| {
+            let lo = i.saturating_sub(BARE_MARGIN_SCANS);
+            let hi = (i + BARE_MARGIN_SCANS + 1).min(info.len());
+            info[lo..hi].iter().all(|&x| x < BARE)
+        })
+        .collect()
+}
+
+/// Maximal runs of observable scans of at least [`MIN_STRETCH_SCANS`].
+fn observable_stretches(info: &[f64]) -> Vec<std::ops::Range<usize>> {
+    let mut out = Vec::new();
+    let mut start = None;
+    for i in 0..=info.len() {
+        let observable = info.get(i).is_some_and(|&x| x >= OBSERVABLE);
+        match (start, observable) {
+            (None, true) => start = Some(i),
+            (Some(s), false) => {
+                if i - s >= MIN_STRETCH_SCANS {
+                    out.push(s..i);
+                }
+                start = None;
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// A world mapped densely without odometry, with each scan's true position information.
+fn mapped_densely(name: &'static str) -> (Arc<Mapped>, Vec<f64>) {
+    let info = position_information(&simulate_world(name, false));
+    (mapped(name, 1, false, false), info)
+}
+
+/// Every bare scan (but the first, which starts the map and cannot be wrong) is `weak` or
+/// `lost`. Returns the number of bare scans.
+fn check_bare_scans_flagged(name: &'static str) -> usize {
+    let (mapped, info) = mapped_densely(name);
+    let bare: Vec<usize> = bare_scans(&info).into_iter().filter(|&i| i > 0).collect();
+    let silent: Vec<usize> = bare
+        .iter()
+        .copied()
+        .filter(|&i| mapped.tracking[i].verdict == Verdict::Ok)
+        .collect();
+    eprintln!(
+        "{name}: {} scans, {} bare, {} of them `ok`; ATE over all scans {:.3} m",
+        info.len(),
+        bare.len(),
+        silent.len(),
+        mapped.ate_all_m()
+    );
+    assert!(
+        silent.is_empty(),
+        "{name}: {} of {} bare scans are `ok`, first {:?}",
+        silent.len(),
+        bare.len(),
+        &silent[..silent.len().min(10)]
+    );
+    bare.len()
+}
+
+/// Every observable stretch, aligned on its own, has an ATE within the target.
+fn check_observable_stretches(name: &'static str) {
+    let (mapped, info) = mapped_densely(name);
+    let ates: Vec<(std::ops::Range<usize>, f64)> = observable_stretches(&info)
+        .into_iter()
+        .map(|r| (r.clone(), mapped.ate_m(r)))
+        .collect();
+    eprintln!(
+        "{name}: observable stretches (scans: ATE m): {:?}",
+        ates.iter()
+            .map(|(r, a)| format!("{}..{}: {a:.3}", r.start, r.end))
+            .collect::<Vec<_>>()
+    );
+    assert!(!ates.is_empty(), "{name}: no observable stretch");
+    for (r, ate) in ates {
+        assert!(
+            ate <= ATE_OBSERVABLE_M,
+            "{name}: ATE {ate:.3} m over the observable scans {r:?}"
+        );
+    }
+}
+
+#[test]
+#[ignore = "issue 10: 266 of the corridor's 840 bare scans (from scan 85 on) are `ok`; ATE over all scans 10.1 m"]
+fn corridor_bare_middle_is_weak_or_lost() {
+    let bare = check_bare_scans_flagged("corridor");
+    assert!(bare > 300, "the corridor has a bare middle: {bare} scans");
+}
+
+#[test]
+#[ignore = "issue 10: the far end of the corridor (scans 616..904, observable) has an ATE of 0.130 m"]
+fn corridor_ends_are_accurate() {
+    check_observable_stretches("corridor");
+}
+
+#[test]
+#[ignore = "issue 10: 124 of the ring's 362 bare scans are `ok` (from scan 1568 on); ATE over all scans 7.15 m"]
+fn ring_bare_stretches_are_weak_or_lost() {
+    check_bare_scans_flagged("ring");
+}
+
+#[test]
+fn ring_is_accurate_where_observable() {
+    check_observable_stretches("ring");
+}
+
+#[test]
+fn hall360_is_accurate_throughout() {
+    let info = position_information(&simulate_world("hall360", false));
+    let mapped = mapped("hall360", 1, false, false);
+    let ate = mapped.ate_all_m();
+    let least = info.iter().copied().fold(f64::INFINITY, f64::min);
+    eprintln!("hall360: ATE {ate:.3} m, least information {least:.1}");
+    assert!(least >= OBSERVABLE, "hall360 is observable everywhere");
+    assert!(ate <= ATE_OBSERVABLE_M, "hall360: ATE {ate:.3} m");
+    assert_eq!(mapped.summary.weak + mapped.summary.lost, 0);
+}
+
+/// A jump in one run: world, K, odometry (none, clean, faulty), scan index, verdict.
+type Jump = (&'static str, usize, &'static str, usize, Verdict);
+
+/// Maps each world every `every`-th scan, without odometry and with the odometry prior on
+/// faulty odometry; returns every jump and the lost counts of the clean runs.
+fn jumps_over_worlds(every: usize) -> (Vec<Jump>, Vec<(&'static str, u32)>) {
+    let mut all = Vec::new();
+    let mut lost = Vec::new();
+    for name in WORLDS {
+        let runs = [
+            ("none", mapped(name, every, false, false)),
+            ("faulty", mapped(name, every, true, true)),
+        ];
+        for (odometry, mapped) in runs {
+            let j = jumps(&mapped, JUMP_M);
+            let skipped = mapped.corrected.iter().filter(|&&c| c).count();
+            eprintln!(
+                "{name} K={every} odometry {odometry}: {} scans, {} jumps > {JUMP_M} m ({} `ok`), {skipped} scans skipped (loop correction), ok/weak/lost {}/{}/{}, {:.0} scans/s",
+                mapped.kept.len(),
+                j.len(),
+                j.iter()
+                    .filter(|&&i| mapped.tracking[i].verdict == Verdict::Ok)
+                    .count(),
+                mapped.summary.ok,
+                mapped.summary.weak,
+                mapped.summary.lost,
+                mapped.scans_per_s()
+            );
+            all.extend(
+                j.iter()
+                    .map(|&i| (name, every, odometry, i, mapped.tracking[i].verdict)),
+            );
+            if odometry == "none" {
+                lost.push((name, mapped.summary.lost));
+            }
+        }
+    }
+    (all, lost)
+}
+
+/// Jumps whose scan was `ok`.
+fn silent(jumps: &[Jump]) -> Vec<Jump> {
+    jumps
+        .iter()
+        .copied()
+        .filter(|j| j.4 == Verdict::Ok)
+        .collect()
+}
+
+#[test]
+fn verdicts_are_honest_on_dense_runs_and_every_fifth_scan() {
+    let (dense, lost) = jumps_over_worlds(1);
+    let (fifth, _) = jumps_over_worlds(5);
+    let unflagged = silent(&[dense, fifth].concat());
+    assert!(unflagged.is_empty(), "jumps reported `ok`: {unflagged:?}");
+    assert!(
+        lost.iter().all(|&(_, n)| n == 0),
+        "clean dense runs lost scans: {lost:?}"
+    );
+}
+
+#[test]
+#[ignore = "issue 10: every 10th scan without odometry, 62 of 335 jumps > 0.3 m are `ok` (corridor 22 of 118, ring 15 of 164, office 25 of 53); with faulty odometry all 8 are flagged"]
+fn verdicts_are_honest_on_every_tenth_scan() {
+    let (tenth, _) = jumps_over_worlds(10);
+    let unflagged = silent(&tenth);
+    assert!(unflagged.is_empty(), "jumps reported `ok`: {unflagged:?}");
+}
+
+/// Travel over which a creeping error is measured, metres.
+const DRIFT_SPAN_M: f64 = 2.0;
+
+#[test]
+#[ignore = "issue 10: silent drifts (over at most 2 m of travel, all scans `ok`, tracked motion > 0.3 m off) without odometry: corridor 21 and ring 30 every scan, office 14 every 10th scan"]
+fn errors_do_not_creep_in_unflagged() {
+    // A jump test misses an error that creeps in by a few centimetres per scan (a corridor
+    // shortened as it is driven); over 2 m of travel such scans must not all be `ok`.
+    let mut found = Vec::new();
+    for name in WORLDS {
+        for every in [1, 5, 10] {
+            let drifts = silent_drifts(&mapped(name, every, false, false), DRIFT_SPAN_M, JUMP_M);
+            eprintln!("{name} K={every}: {} silent drifts", drifts.len());
+            if let Some(&first) = drifts.first() {
+                found.push((name, every, drifts.len(), first));
+            }
+        }
+    }
+    assert!(
+        found.is_empty(),
+        "(world, K, silent drifts, first scan): {found:?}"
+    );
+}
+
+/// Slack on top of the 10 % (metres): half the issue's 0.10 m ATE target. A difference below
+/// it does not decide whether a run meets that target, and where the run without odometry
+/// is at a few millimetres (hall360 every 10th scan: 0.007 m) 10 % of it is below the
+/// laser's own 0.01 m noise.
+const ODOMETRY_SLACK_M: f64 = 0.05;
+
+#[test]
+fn faulty_odometry_does_not_make_the_odometry_prior_much_worse_than_none() {
+    let mut failures = Vec::new();
+    for name in WORLDS {
+        let dead_reckoning = odometry_ate_m(&simulate_world(name, true));
+        // The faults must matter, or the check says nothing.
+        assert!(
+            dead_reckoning > 1.0,
+            "{name}: faulty odometry alone is only {dead_reckoning:.3} m off"
+        );
+        for every in [1, 5, 10] {
+            let without = mapped(name, every, false, false).ate_all_m();
+            let with = mapped(name, every, true, true).ate_all_m();
+            eprintln!(
+                "{name} K={every}: ATE {without:.3} m without odometry, {with:.3} m with faulty odometry (alone {dead_reckoning:.2} m)"
+            );
+            if with > 1.1 * without + ODOMETRY_SLACK_M {
+                failures.push((name, every, without, with));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "worse with odometry: {failures:?}");
+}
+
+#[test]
+fn simulate_lists_the_tracking_worlds() {
+    let out = crate::support::polymap(&["simulate", "--list"]);
+    let listed = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(out.status.success(), "{}", crate::support::text(&out));
+    for name in ["corridor", "ring", "hall360"] {
+        assert!(
+            listed.lines().any(|l| l.starts_with(name)),
+            "{name} missing from:\n{listed}"
+        );
+    }
+}
