@@ -8,7 +8,7 @@ use polymap_export::report::ReportData;
 use polymap_io::carmen::ReaderOptions;
 use polymap_io::map_json::read_map_json;
 use polymap_io::snapshot::{MapSnapshot, ScanPoints};
-use polymap_io::source::open_log;
+use polymap_io::source::{ScanSource, open_log};
 use polymap_io::tum::read_tum;
 use polymap_pipeline::pipeline::reread_scan_points;
 
@@ -68,6 +68,9 @@ fn rays(a: &ExportArgs, snapshot: &MapSnapshot) -> Result<ScanPoints> {
             log.display(),
             stamps.len()
         );
+    }
+    if source.next_scan().is_ok_and(|s| s.is_some()) {
+        eprintln!("polymap: note: the trajectory covers the first {poses} scans of the log");
     }
     let mismatch = snapshot
         .trajectory

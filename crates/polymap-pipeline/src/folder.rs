@@ -92,9 +92,29 @@ impl RunFolder {
         };
         std::fs::create_dir_all(dir).map_err(not_writable)?;
         check_writable_dir(dir).map_err(not_writable)?;
-        Ok(RunFolder {
+        let folder = RunFolder {
             dir: dir.to_path_buf(),
-        })
+        };
+        folder.remove_temporaries().map_err(not_writable)?;
+        Ok(folder)
+    }
+
+    /// Removes the temporary files a killed run left (`.NAME.tmp-PID` of polymap's own names).
+    fn remove_temporaries(&self) -> io::Result<()> {
+        let ours: Vec<&str> = RUN_FILES
+            .iter()
+            .copied()
+            .chain([DIAGNOSTICS_FILE])
+            .chain(Format::ALL.iter().flat_map(|f| f.files().iter().copied()))
+            .collect();
+        for entry in std::fs::read_dir(&self.dir)? {
+            let name = entry?.file_name().to_string_lossy().into_owned();
+            let is_ours = ours.iter().any(|n| name.starts_with(&format!(".{n}.tmp-")));
+            if is_ours {
+                std::fs::remove_file(self.dir.join(&name))?;
+            }
+        }
+        Ok(())
     }
 
     /// The folder.

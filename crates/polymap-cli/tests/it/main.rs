@@ -3,5 +3,6 @@
 mod cli;
 mod datasets;
 mod fig7;
+mod hardening;
 mod support;
 mod worlds;

@@ -286,7 +286,8 @@ impl<R: BufRead> CarmenReader<R> {
             }
             if let (Some(a), Some(b)) = (previous_odometry, scan.odom_from_robot) {
                 let jump_m = (b.translation() - a.translation()).length();
-                if !(jump_m <= self.options.max_odometry_jump_m) {
+                // A non-finite jump (poses far out) counts too.
+                if jump_m.is_nan() || jump_m > self.options.max_odometry_jump_m {
                     self.stats.odometry_jumps.count(line, jump_m);
                     scan.odom_from_robot = None;
                 }
