@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use polymap::geometry::{Pose2, Segment};
 use polymap::scan::RangeScan;
 use polymap_eval::map_quality::{
@@ -25,6 +25,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             relations,
             json,
         } => {
+            check_kinds(trajectory, relations)?;
             let m = evaluate_relations(
                 &read_relations(relations)?,
                 &stamped(trajectory)?,
@@ -34,6 +35,17 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                 bail!(
                     "{}: no relation matched a pose of {} by time stamp",
                     relations.display(),
+                    trajectory.display()
+                );
+            }
+            let share = m.matched as f64 / m.relations.max(1) as f64;
+            if share < MIN_RELATION_SHARE {
+                eprintln!(
+                    "polymap: warning: only {:.1} % of the relations ({} of {}) have both poses in {}: \
+                     the error describes part of the log only",
+                    100.0 * share,
+                    m.matched,
+                    m.relations,
                     trajectory.display()
                 );
             }
@@ -104,6 +116,50 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             }
             print_json_or(&out, *json, || map_table(&out));
         }
+    }
+    Ok(())
+}
+
+/// Below this share of relations matched, `eval relations` warns.
+const MIN_RELATION_SHARE: f64 = 0.9;
+
+/// Share of the 8-number lines of a text file whose last four numbers are a unit quaternion, as
+/// in a TUM trajectory (a `.relations` line ends in `z roll pitch yaw`, which is not); `None`
+/// when the file has no such line.
+fn unit_quaternion_share(path: &Path) -> Result<Option<f64>> {
+    let text = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let (mut lines, mut unit) = (0usize, 0usize);
+    for line in String::from_utf8_lossy(&text).lines() {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .filter_map(|t| t.parse().ok())
+            .collect();
+        if v.len() == 8 {
+            lines += 1;
+            let n2: f64 = v[4..].iter().map(|q| q * q).sum();
+            unit += usize::from((n2 - 1.0).abs() < 0.01);
+        }
+    }
+    Ok((lines > 0).then(|| unit as f64 / lines as f64))
+}
+
+/// `eval relations TRAJECTORY RELATIONS` with the files swapped once said only "no relation
+/// matched": name the file that is not what its place says.
+fn check_kinds(trajectory: &Path, relations: &Path) -> Result<()> {
+    let usage = "usage: polymap eval relations TRAJECTORY.tum LOG.relations";
+    if unit_quaternion_share(trajectory)?.is_some_and(|s| s < 0.5) {
+        bail!(
+            "{}: not a TUM trajectory (its lines do not end in a unit quaternion; a .relations \
+             file?): {usage}",
+            trajectory.display()
+        );
+    }
+    if unit_quaternion_share(relations)?.is_some_and(|s| s > 0.9) {
+        bail!(
+            "{}: not a relations file (its lines end in unit quaternions, as a TUM trajectory's \
+             do): {usage}",
+            relations.display()
+        );
     }
     Ok(())
 }

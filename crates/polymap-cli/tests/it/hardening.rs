@@ -552,3 +552,50 @@ fn odd_carmen_logs_are_refused_or_warned() {
         "{stderr}"
     );
 }
+
+/// `eval relations` with its files swapped said "no relation matched"; a trajectory covering a
+/// small part of the relations passed without a word.
+#[test]
+fn eval_relations_names_a_swapped_file_and_warns_on_low_coverage() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = office_log(dir.path());
+    // Relations between consecutive true poses (identity offsets are fine for this check).
+    let truth = fs::read_to_string(dir.path().join("office.truth.tum")).unwrap();
+    let stamps: Vec<&str> = truth
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    let relations: String = stamps
+        .windows(2)
+        .map(|w| format!("{} {} 0.1 0.0 0.000000 0.000000 0.000000 0.0\n", w[0], w[1]))
+        .collect();
+    let rel = dir.path().join("office.relations");
+    fs::write(&rel, relations).unwrap();
+    let run = dir.path().join("run");
+    let o = polymap(&[
+        "map",
+        log.to_str().unwrap(),
+        "-o",
+        run.to_str().unwrap(),
+        "-q",
+        "--max-scans",
+        "100",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let traj = run.join("trajectory.tum");
+    let (t, r) = (traj.to_str().unwrap(), rel.to_str().unwrap());
+    let o = polymap(&["eval", "relations", t, r]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        stderr.contains("warning: only") && stderr.contains("of the relations"),
+        "{stderr}"
+    );
+    let o = polymap(&["eval", "relations", r, t]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        stderr.contains("office.relations: not a TUM trajectory"),
+        "{stderr}"
+    );
+}
