@@ -431,3 +431,131 @@ pub fn reread_scan_points<S: ScanSource>(
     }
     Ok((points, stamps))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use polymap_sim::{SimParams, simulate, world_by_name};
+
+    /// Scans from memory; fails with `error_at` when it reaches that index.
+    #[derive(Debug)]
+    struct VecSource {
+        scans: std::vec::IntoIter<RangeScan>,
+        read: usize,
+        error_at: Option<usize>,
+    }
+
+    impl ScanSource for VecSource {
+        type Error = std::io::Error;
+
+        fn next_scan(&mut self) -> Result<Option<RangeScan>, std::io::Error> {
+            if self.error_at == Some(self.read) {
+                return Err(std::io::Error::other("line 7: broken"));
+            }
+            self.read += 1;
+            Ok(self.scans.next())
+        }
+    }
+
+    fn scans(n: usize) -> Vec<RangeScan> {
+        let world = world_by_name("hallway45").expect("a built-in world");
+        let mut run = simulate(&world, &SimParams::default(), 1);
+        run.scans.truncate(n);
+        run.scans
+    }
+
+    fn source(scans: &[RangeScan]) -> VecSource {
+        VecSource {
+            scans: scans.to_vec().into_iter(),
+            read: 0,
+            error_at: None,
+        }
+    }
+
+    #[test]
+    fn the_pipeline_maps_as_one_thread_does_in_batches_and_streams() {
+        let scans = scans(300);
+        let config = Config::default();
+        let mut mapper = Mapper::new(config.clone());
+        for s in &scans {
+            mapper.push(s);
+        }
+        mapper.finish();
+        for stream in [false, true] {
+            let options = PipelineOptions {
+                stream,
+                keep_scan_points: true,
+                ..PipelineOptions::default()
+            };
+            let out = run(source(&scans), &config, &options, |_| Ok(())).expect("runs");
+            let r = &out.record;
+            assert_eq!(r.mapper.segments(), mapper.segments());
+            let poses: Vec<_> = r.trajectory.iter().map(|p| p.map_from_robot).collect();
+            assert_eq!(poses, mapper.trajectory());
+            assert!(
+                r.trajectory
+                    .iter()
+                    .zip(&scans)
+                    .all(|(p, s)| p.stamp == s.stamp)
+            );
+            let points = r.scan_points.as_ref().expect("kept");
+            assert_eq!(points.len(), 300);
+            assert_eq!(points.scan(17), scan_points(&scans[17]).as_slice());
+            let valid: usize = scans.iter().map(RangeScan::valid_count).sum();
+            assert_eq!(r.valid_returns, valid as u64);
+            assert!(!r.interrupted && out.source.is_some());
+        }
+    }
+
+    #[test]
+    fn a_stop_keeps_what_was_mapped() {
+        let scans = scans(200);
+        let stop = Arc::new(AtomicBool::new(false));
+        let options = PipelineOptions {
+            stop: Some(Arc::clone(&stop)),
+            ..PipelineOptions::default()
+        };
+        let out = run(source(&scans), &Config::default(), &options, |e| {
+            if e.index == 49 {
+                stop.store(true, Ordering::SeqCst);
+            }
+            Ok(())
+        })
+        .expect("runs");
+        assert!(out.record.interrupted);
+        assert_eq!(out.record.trajectory.len(), 50);
+        assert!(out.source.is_none());
+    }
+
+    #[test]
+    fn every_kth_scan_and_read_errors() {
+        let scans = scans(100);
+        let options = PipelineOptions {
+            every: 3,
+            every_offset: 1,
+            max_scans: Some(10),
+            ..PipelineOptions::default()
+        };
+        let out = run(source(&scans), &Config::default(), &options, |_| Ok(())).expect("runs");
+        let stamps: Vec<_> = out
+            .record
+            .trajectory
+            .iter()
+            .map(|p| p.stamp.clone())
+            .collect();
+        let picked: Vec<_> = (0..10).map(|i| scans[1 + 3 * i].stamp.clone()).collect();
+        assert_eq!(stamps, picked);
+        let failing = VecSource {
+            error_at: Some(40),
+            ..source(&scans)
+        };
+        let e = run(
+            failing,
+            &Config::default(),
+            &PipelineOptions::default(),
+            |_| Ok(()),
+        )
+        .expect_err("the read error fails the run");
+        assert!(e.to_string().contains("line 7: broken"), "{e}");
+    }
+}

@@ -48,6 +48,8 @@ mod writer;
 mod tests;
 #[cfg(test)]
 mod tests_malformed;
+#[cfg(test)]
+mod tests_oddities;
 
 pub use error::{CarmenError, LineProblem};
 pub use geometry::{FlaserGeometry, flaser_beam_geometry};
