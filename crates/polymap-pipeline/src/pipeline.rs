@@ -440,7 +440,7 @@ mod tests {
     /// Scans from memory; fails with `error_at` when it reaches that index.
     #[derive(Debug)]
     struct VecSource {
-        scans: std::vec::IntoIter<RangeScan>,
+        scans: std::collections::VecDeque<RangeScan>,
         read: usize,
         error_at: Option<usize>,
     }
@@ -453,7 +453,7 @@ mod tests {
                 return Err(std::io::Error::other("line 7: broken"));
             }
             self.read += 1;
-            Ok(self.scans.next())
+            Ok(self.scans.pop_front())
         }
     }
 
@@ -466,7 +466,7 @@ mod tests {
 
     fn source(scans: &[RangeScan]) -> VecSource {
         VecSource {
-            scans: scans.to_vec().into_iter(),
+            scans: scans.iter().cloned().collect(),
             read: 0,
             error_at: None,
         }
