@@ -81,7 +81,7 @@ fn stamps_going_back_or_repeating_are_counted_with_their_first_line() {
 #[test]
 fn an_odometry_jump_is_counted_and_its_odometry_dropped() {
     let scan = |x: f64, t: f64| {
-        let ranges = vec!["1.0"; 3].join(" ");
+        let ranges = ["1.0"; 3].join(" ");
         format!("FLASER 3 {ranges} {x} 0 0 {x} 0 0 {t} h 0\n")
     };
     let text = [
