@@ -11,8 +11,9 @@ use polymap_eval::map_quality::{
 use polymap_eval::relation_error::{RelationParams, evaluate_relations};
 use polymap_eval::relations::read_relations;
 use polymap_eval::trajectory::{TrajectoryParams, evaluate_trajectory};
-use polymap_io::carmen::{CarmenReader, ReaderOptions};
+use polymap_io::carmen::ReaderOptions;
 use polymap_io::map_json::read_map_json;
+use polymap_io::source::{ScanSource, open_log};
 use polymap_io::tum::read_tum;
 use serde_json::json;
 
@@ -218,8 +219,9 @@ fn matching_scans<'a>(
     Ok(&scans[..trajectory.len()])
 }
 
+/// Every scan of the log (plain, gzip or bzip2; `-` is standard input).
 fn read_scans(log: &Path) -> Result<Vec<RangeScan>> {
-    let mut reader = CarmenReader::open(log, ReaderOptions::default())?;
+    let mut reader = open_log(log, ReaderOptions::default())?;
     let mut scans = Vec::new();
     while let Some(s) = reader.next_scan()? {
         scans.push(s);
