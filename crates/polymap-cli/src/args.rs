@@ -30,7 +30,7 @@ pub struct ExportArgs {
     pub run: PathBuf,
     /// Formats to write (comma-separated): png, html, pgm, dxf.
     #[arg(long, value_delimiter = ',', required = true)]
-    pub format: Vec<crate::exports::Format>,
+    pub format: Vec<polymap_export::formats::Format>,
     /// Cell size of the pgm occupancy grid, metres.
     #[arg(long, default_value_t = 0.05, value_parser = parse_resolution)]
     pub resolution: f64,
@@ -107,8 +107,8 @@ pub struct SimulateArgs {
 
 #[derive(Debug, Args)]
 pub struct MapArgs {
-    /// The CARMEN log (.clf) to map. Without it, the built-in `hallway45` world is simulated
-    /// and mapped.
+    /// The CARMEN log (.clf, or compressed .gz/.bz2) to map; `-` reads standard input. Without
+    /// it, the built-in `hallway45` world is simulated and mapped.
     pub log: Option<PathBuf>,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "out")]
@@ -148,14 +148,14 @@ pub struct MapArgs {
     pub diagnostics: bool,
     /// Also write these formats (comma-separated): png, html, pgm, dxf.
     #[arg(long, value_delimiter = ',')]
-    pub export: Vec<crate::exports::Format>,
+    pub export: Vec<polymap_export::formats::Format>,
     /// Cell size of the pgm occupancy grid, metres.
     #[arg(long, default_value_t = 0.05, value_parser = parse_resolution)]
     pub resolution: f64,
     /// Print where the time went.
     #[arg(long)]
     pub timings: bool,
-    /// No progress bar.
+    /// Quiet: no progress bar and no summary line (warnings and errors still go to stderr).
     #[arg(short, long)]
     pub quiet: bool,
 }

@@ -2,17 +2,18 @@
 
 use std::path::Path;
 
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use polymap::geometry::{Pose2, Segment};
 use polymap::scan::RangeScan;
 use polymap_eval::map_quality::{
-    PointFitParams, TrueWall, WallParams, map_fit_to_points, map_vs_walls,
+    PointFitParams, TrueWall, WallParams, align_map_to_walls, map_fit_to_points, map_vs_walls,
 };
 use polymap_eval::relation_error::{RelationParams, evaluate_relations};
 use polymap_eval::relations::read_relations;
 use polymap_eval::trajectory::{TrajectoryParams, evaluate_trajectory};
-use polymap_io::carmen::{CarmenReader, ReaderOptions};
+use polymap_io::carmen::ReaderOptions;
 use polymap_io::map_json::read_map_json;
+use polymap_io::source::{ScanSource, open_log};
 use polymap_io::tum::read_tum;
 use serde_json::json;
 
@@ -25,6 +26,7 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             relations,
             json,
         } => {
+            check_kinds(trajectory, relations)?;
             let m = evaluate_relations(
                 &read_relations(relations)?,
                 &stamped(trajectory)?,
@@ -34,6 +36,17 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                 bail!(
                     "{}: no relation matched a pose of {} by time stamp",
                     relations.display(),
+                    trajectory.display()
+                );
+            }
+            let share = m.matched as f64 / m.relations.max(1) as f64;
+            if share < MIN_RELATION_SHARE {
+                eprintln!(
+                    "polymap: warning: only {:.1} % of the relations ({} of {}) have both poses in {}: \
+                     the error describes part of the log only",
+                    100.0 * share,
+                    m.matched,
+                    m.relations,
                     trajectory.display()
                 );
             }
@@ -95,15 +108,66 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                     .into_iter()
                     .map(TrueWall::from)
                     .collect();
-                out["walls"] = serde_json::to_value(map_vs_walls(
-                    &map,
-                    &truth,
-                    &Pose2::IDENTITY,
-                    &WallParams::default(),
-                ))?;
+                // The map's shape after the best rigid fit (as ATE aligns a trajectory), and
+                // its placement in the first scan's frame as mapped.
+                let world_from_map = align_map_to_walls(&map, &truth);
+                let params = WallParams::default();
+                out["walls"] =
+                    serde_json::to_value(map_vs_walls(&map, &truth, &world_from_map, &params))?;
+                out["walls_alignment"] = json!({
+                    "x_m": world_from_map.x_m,
+                    "y_m": world_from_map.y_m,
+                    "theta_deg": world_from_map.theta_rad.to_degrees(),
+                });
+                out["walls_unaligned"] =
+                    serde_json::to_value(map_vs_walls(&map, &truth, &Pose2::IDENTITY, &params))?;
             }
             print_json_or(&out, *json, || map_table(&out));
         }
+    }
+    Ok(())
+}
+
+/// Below this share of relations matched, `eval relations` warns.
+const MIN_RELATION_SHARE: f64 = 0.9;
+
+/// Share of the 8-number lines of a text file whose last four numbers are a unit quaternion, as
+/// in a TUM trajectory (a `.relations` line ends in `z roll pitch yaw`, which is not); `None`
+/// when the file has no such line.
+fn unit_quaternion_share(path: &Path) -> Result<Option<f64>> {
+    let text = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let (mut lines, mut unit) = (0usize, 0usize);
+    for line in String::from_utf8_lossy(&text).lines() {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .filter_map(|t| t.parse().ok())
+            .collect();
+        if v.len() == 8 {
+            lines += 1;
+            let n2: f64 = v[4..].iter().map(|q| q * q).sum();
+            unit += usize::from((n2 - 1.0).abs() < 0.01);
+        }
+    }
+    Ok((lines > 0).then(|| unit as f64 / lines as f64))
+}
+
+/// `eval relations TRAJECTORY RELATIONS` with the files swapped once said only "no relation
+/// matched": name the file that is not what its place says.
+fn check_kinds(trajectory: &Path, relations: &Path) -> Result<()> {
+    let usage = "usage: polymap eval relations TRAJECTORY.tum LOG.relations";
+    if unit_quaternion_share(trajectory)?.is_some_and(|s| s < 0.5) {
+        bail!(
+            "{}: not a TUM trajectory (its lines do not end in a unit quaternion; a .relations \
+             file?): {usage}",
+            trajectory.display()
+        );
+    }
+    if unit_quaternion_share(relations)?.is_some_and(|s| s > 0.9) {
+        bail!(
+            "{}: not a relations file (its lines end in unit quaternions, as a TUM trajectory's \
+             do): {usage}",
+            relations.display()
+        );
     }
     Ok(())
 }
@@ -155,8 +219,9 @@ fn matching_scans<'a>(
     Ok(&scans[..trajectory.len()])
 }
 
+/// Every scan of the log (plain, gzip or bzip2; `-` is standard input).
 fn read_scans(log: &Path) -> Result<Vec<RangeScan>> {
-    let mut reader = CarmenReader::open(log, ReaderOptions::default())?;
+    let mut reader = open_log(log, ReaderOptions::default())?;
     let mut scans = Vec::new();
     while let Some(s) = reader.next_scan()? {
         scans.push(s);
@@ -218,10 +283,24 @@ fn map_table(v: &serde_json::Value) -> String {
         );
     }
     if let Some(w) = v.get("walls") {
+        let a = &v["walls_alignment"];
+        let (x, y) = (
+            a["x_m"].as_f64().unwrap_or(0.0),
+            a["y_m"].as_f64().unwrap_or(0.0),
+        );
         s += &format!(
-            "true walls: precision {}, recall {} (within 5 cm)\n",
+            "true walls: precision {}, recall {} (within 5 cm, after laying the map onto the \
+             walls: turned {:.2}°, shifted {:.3} m)\n",
             pct(&w["precision"]),
-            pct(&w["recall"])
+            pct(&w["recall"]),
+            a["theta_deg"].as_f64().unwrap_or(0.0),
+            x.hypot(y)
+        );
+        let u = &v["walls_unaligned"];
+        s += &format!(
+            "true walls as placed in the first scan's frame: precision {}, recall {}\n",
+            pct(&u["precision"]),
+            pct(&u["recall"])
         );
     }
     s

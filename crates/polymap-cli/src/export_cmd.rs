@@ -1,36 +1,36 @@
 //! `polymap export`: other formats from a finished run.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
+use polymap_export::formats::{ExportInput, Format, export};
 use polymap_export::report::ReportData;
+use polymap_io::carmen::ReaderOptions;
 use polymap_io::map_json::read_map_json;
+use polymap_io::snapshot::{MapSnapshot, ScanPoints};
+use polymap_io::source::{ScanSource, open_log};
 use polymap_io::tum::read_tum;
+use polymap_pipeline::pipeline::reread_scan_points;
 
 use crate::args::ExportArgs;
-use crate::exports::{ExportInput, Format, export};
+use crate::quote::quoted;
 
 pub fn run(a: &ExportArgs) -> Result<()> {
     let map = read_map_json(a.run.join("map.json"))?;
     let trajectory = read_tum(a.run.join("trajectory.tum"))?;
-    let log = match &a.log {
-        Some(l) => Some(l.clone()),
-        None if a.format.contains(&Format::Pgm) => Some(logged_path(&a.run)?),
-        None => None,
+    let snapshot = MapSnapshot::from_files(&map, trajectory);
+    let rays = match a.format.contains(&Format::Pgm) {
+        true => Some(rays(a, &snapshot)?),
+        false => None,
     };
     let history = match a.format.contains(&Format::Html) {
         true => Some(read_history(&a.run)?),
         false => None,
     };
-    let segments = map.map_segments();
     let input = ExportInput {
         dir: &a.run,
-        segments: &segments,
-        polylines: &map.polylines,
-        trajectory: &trajectory,
-        scan_points: &[],
-        log: log.as_deref(),
-        skip_bad_lines: a.skip_bad_lines,
+        snapshot: &snapshot,
+        rays: rays.as_ref(),
         history: history.as_ref(),
         resolution_m: a.resolution,
     };
@@ -40,8 +40,58 @@ pub fn run(a: &ExportArgs) -> Result<()> {
     Ok(())
 }
 
-/// The log named in the run's summary.json.
-fn logged_path(run: &std::path::Path) -> Result<PathBuf> {
+/// The laser rays of the mapped log, read again through the pipeline's conversion; scan `i`
+/// goes with pose `i` (a log's stamps may repeat or go backwards, so they are only checked).
+fn rays(a: &ExportArgs, snapshot: &MapSnapshot) -> Result<ScanPoints> {
+    let log = match &a.log {
+        Some(l) => l.clone(),
+        None => logged_path(&a.run)?,
+    };
+    let options = ReaderOptions {
+        skip_bad_lines: a.skip_bad_lines,
+        ..ReaderOptions::default()
+    };
+    let mut source = open_log(&log, options)?;
+    if !source.is_regular_file() {
+        bail!(
+            "{}: not a file that can be read again (standard input, a pipe or a device): \
+             pass the log with --log FILE, or map with --export pgm",
+            quoted(&log.display().to_string())
+        );
+    }
+    let poses = snapshot.trajectory.len();
+    let (points, stamps) = reread_scan_points(&mut source, poses)
+        .with_context(|| format!("re-reading {} for the occupancy grid", log.display()))?;
+    if stamps.len() < poses {
+        bail!(
+            "{}: the trajectory has {poses} poses but the log only {} scans: not this log's trajectory",
+            log.display(),
+            stamps.len()
+        );
+    }
+    if source.next_scan().is_ok_and(|s| s.is_some()) {
+        eprintln!("polymap: note: the trajectory covers the first {poses} scans of the log");
+    }
+    let mismatch = snapshot
+        .trajectory
+        .iter()
+        .zip(&stamps)
+        .position(|(p, s)| p.stamp.seconds != s.seconds);
+    if let Some(i) = mismatch {
+        bail!(
+            "{}: trajectory pose {} has stamp {} but scan {} of the log has {}: not this log's trajectory",
+            log.display(),
+            i + 1,
+            quoted(&snapshot.trajectory[i].stamp.text),
+            i + 1,
+            quoted(&stamps[i].text)
+        );
+    }
+    Ok(points)
+}
+
+/// The log named in the run's summary.json; a run that read standard input has none.
+fn logged_path(run: &Path) -> Result<PathBuf> {
     let path = run.join("summary.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("{}: cannot read", path.display()))?;
@@ -50,11 +100,18 @@ fn logged_path(run: &std::path::Path) -> Result<PathBuf> {
     let log = summary["log"]
         .as_str()
         .with_context(|| format!("{}: no \"log\"; pass --log", path.display()))?;
+    if log == "-" {
+        bail!(
+            "{}: the run read its log from standard input, which cannot be read again: \
+             pass the log with --log FILE (or map with --export pgm)",
+            run.display()
+        );
+    }
     Ok(PathBuf::from(log))
 }
 
 /// The replay history the run saved.
-pub fn read_history(run: &std::path::Path) -> Result<ReportData> {
+pub fn read_history(run: &Path) -> Result<ReportData> {
     let path = run.join("history.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("{}: cannot read", path.display()))?;

@@ -23,10 +23,12 @@ mod args;
 mod config_file;
 mod eval_cmd;
 mod export_cmd;
-mod exports;
+mod interrupt;
 mod map_cmd;
 mod outputs;
+mod quote;
 mod sim_cmd;
+mod warnings;
 
 use std::process::ExitCode;
 
@@ -42,8 +44,13 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        Err(e) if e.downcast_ref::<interrupt::Interrupted>().is_some() => {
+            ExitCode::from(interrupt::EXIT_INTERRUPTED)
+        }
         Err(e) => {
-            eprintln!("polymap: error: {}", one_line(&e));
+            // Messages may quote a log's bytes: escape control characters (a binary log must
+            // not move the cursor or change the terminal's colours).
+            eprintln!("polymap: error: {}", quote::quoted(&one_line(&e)));
             ExitCode::FAILURE
         }
     }

@@ -10,11 +10,12 @@
 //! ```
 //! use polymap::geometry::{Segment, Vec2};
 //! use polymap::map::MapSegment;
-//! use polymap_export::dxf::{DxfScene, write_dxf_to};
-//! let segments = [MapSegment { segment: Segment::new(Vec2::ZERO, Vec2::new(3.0, 0.0)), born_scan: 0 }];
-//! let scene = DxfScene { segments: &segments, polylines: &[vec![0]], trajectory: &[] };
+//! use polymap_export::dxf::write_dxf_to;
+//! use polymap_io::snapshot::MapSnapshot;
+//! let segments = vec![MapSegment { segment: Segment::new(Vec2::ZERO, Vec2::new(3.0, 0.0)), born_scan: 0 }];
+//! let snapshot = MapSnapshot::from_parts(segments, vec![vec![0]], &[], Vec::new());
 //! let mut out = Vec::new();
-//! write_dxf_to(&mut out, &scene).unwrap();
+//! write_dxf_to(&mut out, &snapshot).unwrap();
 //! let text = String::from_utf8(out).unwrap();
 //! assert!(text.contains("LINE\n8\nMAP\n") && text.ends_with("0\nEOF\n"));
 //! ```
@@ -25,8 +26,10 @@ use std::path::Path;
 use polymap::geometry::Vec2;
 use polymap::map::MapSegment;
 
+use polymap_io::snapshot::MapSnapshot;
+
 use crate::ExportError;
-use polymap_io::picture::Bounds;
+use crate::picture::Bounds;
 
 /// Layer of the map segments.
 pub const MAP_LAYER: &str = "MAP";
@@ -37,45 +40,32 @@ const POLYLINE_ACI: [u8; 10] = [5, 30, 1, 4, 3, 2, 6, 221, 34, 9];
 /// AutoCAD colour index of segments in no polyline (grey).
 const LOOSE_ACI: u8 = 8;
 
-/// What goes into the drawing; metres, map frame.
-#[derive(Debug, Clone, Copy, Default)]
-pub struct DxfScene<'a> {
-    /// The map's segments, one `LINE` each.
-    pub segments: &'a [MapSegment],
-    /// Polylines as indices into `segments` (they choose the colours); out-of-range indices are
-    /// ignored.
-    pub polylines: &'a [Vec<usize>],
-    /// Robot positions in order; written as one `POLYLINE` when there are two or more.
-    pub trajectory: &'a [Vec2],
-}
-
-/// Writes the drawing to `path`.
-pub fn write_dxf(path: &Path, scene: &DxfScene<'_>) -> Result<(), ExportError> {
-    let file = std::fs::File::create(path).map_err(|e| ExportError::io(path, e))?;
-    let mut out = io::BufWriter::new(file);
-    write_dxf_to(&mut out, scene)
-        .and_then(|()| out.flush())
+/// Writes the drawing of `snapshot` (segments, polylines for the colours, trajectory) to
+/// `path` atomically.
+pub fn write_dxf(path: &Path, snapshot: &MapSnapshot) -> Result<(), ExportError> {
+    polymap_io::atomic::write_atomic(path, |out| write_dxf_to(&mut &mut *out, snapshot))
         .map_err(|e| ExportError::io(path, e))
 }
 
 /// Writes the drawing to any writer.
-pub fn write_dxf_to(out: &mut impl Write, scene: &DxfScene<'_>) -> io::Result<()> {
-    write_header(out, scene)?;
+pub fn write_dxf_to(out: &mut impl Write, snapshot: &MapSnapshot) -> io::Result<()> {
+    let trajectory = snapshot.positions();
+    write_header(out, snapshot, &trajectory)?;
     write_tables(out)?;
     section(out, "ENTITIES")?;
-    let colours = segment_colours(scene);
-    for (m, colour) in scene.segments.iter().zip(colours) {
+    let colours = segment_colours(snapshot);
+    for (m, colour) in snapshot.segments.iter().zip(colours) {
         write_line(out, m, colour)?;
     }
-    write_trajectory(out, scene.trajectory)?;
+    write_trajectory(out, &trajectory)?;
     pairs(out, &[("0", "ENDSEC"), ("0", "EOF")])
 }
 
 /// The colour of each segment: its first polyline's, or grey.
-fn segment_colours(scene: &DxfScene<'_>) -> Vec<u8> {
-    let mut colours = vec![LOOSE_ACI; scene.segments.len()];
-    for (k, polyline) in scene.polylines.iter().enumerate().rev() {
-        for &i in polyline {
+fn segment_colours(snapshot: &MapSnapshot) -> Vec<u8> {
+    let mut colours = vec![LOOSE_ACI; snapshot.segments.len()];
+    for (k, polyline) in snapshot.polylines.iter().enumerate().rev() {
+        for &i in &polyline.segments {
             if let Some(c) = colours.get_mut(i) {
                 *c = POLYLINE_ACI[k % POLYLINE_ACI.len()];
             }
@@ -84,12 +74,16 @@ fn segment_colours(scene: &DxfScene<'_>) -> Vec<u8> {
     colours
 }
 
-fn write_header(out: &mut impl Write, scene: &DxfScene<'_>) -> io::Result<()> {
-    let endpoints = scene
+fn write_header(
+    out: &mut impl Write,
+    snapshot: &MapSnapshot,
+    trajectory: &[Vec2],
+) -> io::Result<()> {
+    let endpoints = snapshot
         .segments
         .iter()
         .flat_map(|m| [m.segment.start, m.segment.end]);
-    let all = endpoints.chain(scene.trajectory.iter().copied());
+    let all = endpoints.chain(trajectory.iter().copied());
     let b = Bounds::around(all).unwrap_or(Bounds {
         min: Vec2::ZERO,
         max: Vec2::ONE,
@@ -204,11 +198,12 @@ mod tests {
             seg(f64::NAN, 0.0, 1.0, 1.0),
             seg(5.0, 5.0, 6.0, 6.0),
         ];
-        let scene = DxfScene {
-            segments: &segments,
-            polylines: &[vec![0, 1, 99]],
-            trajectory: &[Vec2::ZERO, Vec2::NAN],
-        };
+        let scene = MapSnapshot::from_parts(
+            segments.to_vec(),
+            vec![vec![0, 1, 99]],
+            &[Vec2::ZERO, Vec2::NAN],
+            Vec::new(),
+        );
         let mut out = Vec::new();
         write_dxf_to(&mut out, &scene).expect("in memory");
         let text = String::from_utf8(out).expect("ASCII");
@@ -227,11 +222,7 @@ mod tests {
     fn group_codes_and_values_alternate() {
         let segments = [seg(0.0, 0.0, 1.0, 0.0)];
         let trajectory = [Vec2::ZERO, Vec2::new(1.0, 1.0)];
-        let scene = DxfScene {
-            segments: &segments,
-            polylines: &[],
-            trajectory: &trajectory,
-        };
+        let scene = MapSnapshot::from_parts(segments.to_vec(), Vec::new(), &trajectory, Vec::new());
         let mut out = Vec::new();
         write_dxf_to(&mut out, &scene).expect("in memory");
         let text = String::from_utf8(out).expect("ASCII");

@@ -37,6 +37,14 @@ pub enum ExportError {
         /// What is wrong with it.
         reason: String,
     },
+    /// A format needs an input the run does not have.
+    #[error("{}: cannot write without {what}", path.display())]
+    Missing {
+        /// The file that was to be written.
+        path: PathBuf,
+        /// What is missing.
+        what: String,
+    },
     /// Encoding a PNG picture failed.
     #[error("{}: PNG encoding failed: {message}", path.display())]
     Png {

@@ -7,21 +7,27 @@
 //!
 //! - [`carmen`]: a streaming CARMEN log reader (`FLASER`, `ROBOTLASER1`, `ODOM`, `PARAM`), one
 //!   [`RangeScan`](polymap::scan::RangeScan) at a time, and a writer of the same format.
+//! - [`source`]: the [`ScanSource`](source::ScanSource) trait the mapping pipeline reads, and
+//!   [`open_log`](source::open_log) (files or standard input, gzip and bzip2 read directly).
 //!
 //! Writers (results out, see "Contracts other tools rely on" in `ARCHITECTURE.md`):
 //!
 //! - [`tum`]: trajectories in the TUM format (`stamp x y z qx qy qz qw`), and a reader.
 //! - [`map_json`]: the `map.json` contract (segments, polylines), and a reader.
-//! - [`svg`]: the map, polylines, trajectory and scan points as a picture for a person.
-//! - [`picture`]: what every map picture shares (extent, scale bar, palette).
+//! - [`snapshot`]: the map snapshot every writer takes (here and in `polymap-export`).
+//! - [`atomic`]: every output is written to a temporary file and renamed into place.
+//!
+//! [`printable`] escapes control bytes from a log before they reach a terminal.
 //!
 //! Each format has its own error type carrying the file and, where it applies, the 1-based line.
 
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
 
+pub mod atomic;
 pub mod carmen;
 pub mod map_json;
-pub mod picture;
-pub mod svg;
+pub mod printable;
+pub mod snapshot;
+pub mod source;
 pub mod tum;

@@ -26,7 +26,7 @@
 //! ```
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
 use polymap::geometry::{Segment, Vec2};
@@ -170,16 +170,18 @@ impl SegmentJson {
     }
 }
 
-/// Writes `map` to a file (created or truncated), after checking it with [`MapJson::validate`].
+/// Writes `map` to a file atomically (see [`crate::atomic`]), after checking it with
+/// [`MapJson::validate`].
 pub fn write_map_json(path: impl AsRef<Path>, map: &MapJson) -> Result<(), MapJsonError> {
     let path = path.as_ref();
-    let io = |source| MapJsonError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut out = BufWriter::new(File::create(path).map_err(io)?);
-    write_map_json_to(&mut out, path, map)?;
-    out.flush().map_err(io)
+    crate::atomic::write_atomic_with(
+        path,
+        |out| write_map_json_to(out, path, map),
+        |source| MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+    )
 }
 
 /// Writes `map` to `out`, one segment or polyline per line; `path` names it in errors.

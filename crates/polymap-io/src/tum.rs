@@ -22,7 +22,7 @@
 //! ```
 
 use std::fs::File;
-use std::io::{BufRead, BufReader, BufWriter, Read, Write};
+use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
 use polymap::geometry::Pose2;
@@ -75,16 +75,17 @@ pub enum TumError {
     },
 }
 
-/// Writes a trajectory file (created or truncated).
+/// Writes a trajectory file atomically (see [`crate::atomic`]).
 pub fn write_tum(path: impl AsRef<Path>, poses: &[StampedPose]) -> Result<(), TumError> {
     let path = path.as_ref();
-    let io = |source| TumError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let mut out = BufWriter::new(File::create(path).map_err(io)?);
-    write_tum_to(&mut out, path, poses)?;
-    out.flush().map_err(io)
+    crate::atomic::write_atomic_with(
+        path,
+        |out| write_tum_to(out, path, poses),
+        |source| TumError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+    )
 }
 
 /// Writes a trajectory to `out`; `path` names it in errors.

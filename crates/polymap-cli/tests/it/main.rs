@@ -3,6 +3,7 @@
 mod cli;
 mod datasets;
 mod fig7;
+mod hardening;
 mod support;
 mod tracking;
 mod tracking_support;

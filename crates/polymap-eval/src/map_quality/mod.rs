@@ -10,7 +10,7 @@ mod walls;
 
 pub use points::{PointFit, PointFitParams, map_fit_to_points};
 pub use segment_index::{NearestSegment, SegmentIndex, nearest_segment_brute_force};
-pub use walls::{TrueWall, WallParams, WallScore, map_vs_walls};
+pub use walls::{TrueWall, WallParams, WallScore, align_map_to_walls, map_vs_walls};
 
 #[cfg(test)]
 mod tests;

@@ -1,7 +1,6 @@
 //! Writes an [`OccupancyGrid`] as a ROS `map_server` / Nav2 map: `STEM.pgm` and `STEM.yaml`.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use super::{Cell, OccupancyGrid};
@@ -59,10 +58,7 @@ fn check_stem(stem: &str) -> Result<(), ExportError> {
 }
 
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ExportError> {
-    let mut file = std::fs::File::create(path).map_err(|e| ExportError::io(path, e))?;
-    file.write_all(bytes)
-        .and_then(|()| file.flush())
-        .map_err(|e| ExportError::io(path, e))
+    polymap_io::atomic::write_bytes_atomic(path, bytes).map_err(|e| ExportError::io(path, e))
 }
 
 /// The whole P5 file: header, then rows from the top of the map (highest y) down.

@@ -28,7 +28,7 @@ pub use map_server::{
 use polymap::geometry::{Pose2, Segment, Vec2};
 
 use crate::ExportError;
-use polymap_io::picture::Bounds;
+use crate::picture::Bounds;
 use traverse::for_each_cell;
 
 /// How the occupancy grid is laid out.

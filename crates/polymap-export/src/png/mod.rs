@@ -2,16 +2,17 @@
 //! optional scan points and a scale bar on white — the same content as the SVG, for quick
 //! looks and READMEs.
 //!
-//! The picture is [`PngScene::width_px`] wide with the height from the map's aspect ratio;
+//! The picture is [`PngStyle::width_px`] wide with the height from the map's aspect ratio;
 //! neither side exceeds [`MAX_SIDE_PX`] (the scale shrinks to fit). Map y points up.
 //!
 //! ```
 //! use polymap::geometry::{Segment, Vec2};
 //! use polymap::map::MapSegment;
-//! use polymap_export::png::{PngScene, render_png};
-//! let segments = [MapSegment { segment: Segment::new(Vec2::ZERO, Vec2::new(10.0, 0.0)), born_scan: 0 }];
-//! let scene = PngScene { segments: &segments, width_px: 400, ..Default::default() };
-//! let bytes = render_png(&scene).unwrap();
+//! use polymap_export::png::{PngStyle, render_png};
+//! use polymap_io::snapshot::MapSnapshot;
+//! let segments = vec![MapSegment { segment: Segment::new(Vec2::ZERO, Vec2::new(10.0, 0.0)), born_scan: 0 }];
+//! let snapshot = MapSnapshot::from_parts(segments, Vec::new(), &[], Vec::new());
+//! let bytes = render_png(&snapshot, &PngStyle { width_px: 400, ..Default::default() }).unwrap();
 //! assert!(bytes.starts_with(b"\x89PNG"));
 //! ```
 
@@ -21,12 +22,11 @@ use std::path::Path;
 
 use polymap::geometry::Vec2;
 use polymap::map::MapSegment;
+use polymap_io::snapshot::{MapSnapshot, Polyline};
 use tiny_skia::{Color, LineCap, LineJoin, Paint, PathBuilder, Pixmap, Rect, Stroke, Transform};
 
 use crate::ExportError;
-use polymap_io::picture::{
-    Bounds, LOOSE_RGB, PALETTE_RGB, length_label, round_length_m, view_bounds,
-};
+use crate::picture::{Bounds, LOOSE_RGB, PALETTE_RGB, length_label, round_length_m, view_bounds};
 
 /// Default picture width, pixels.
 pub const DEFAULT_WIDTH_PX: u32 = 1600;
@@ -37,32 +37,43 @@ pub const DEFAULT_MAX_SCAN_POINTS: usize = 200_000;
 /// Colour of the trajectory, RGB.
 const TRAJECTORY_RGB: [u8; 3] = [0xd6, 0x27, 0x28];
 
-/// What to draw. All coordinates are metres in the map frame.
-#[derive(Debug, Clone, Copy)]
-pub struct PngScene<'a> {
-    /// The map's segments.
-    pub segments: &'a [MapSegment],
-    /// Polylines as indices into `segments`; out-of-range indices are ignored.
-    pub polylines: &'a [Vec<usize>],
-    /// Robot positions in order, drawn as a thin red line with a dot at the start.
-    pub trajectory: &'a [Vec2],
-    /// Scan points, drawn as small grey dots; may be empty.
-    pub scan_points: &'a [Vec2],
+/// How to draw.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PngStyle {
     /// At most this many scan points are drawn (every k-th point when there are more).
     pub max_scan_points: usize,
     /// Picture width, pixels (clamped to `16..=MAX_SIDE_PX`).
     pub width_px: u32,
 }
 
-impl Default for PngScene<'_> {
+impl Default for PngStyle {
     fn default() -> Self {
-        PngScene {
-            segments: &[],
-            polylines: &[],
-            trajectory: &[],
-            scan_points: &[],
+        PngStyle {
             max_scan_points: DEFAULT_MAX_SCAN_POINTS,
             width_px: DEFAULT_WIDTH_PX,
+        }
+    }
+}
+
+/// What to draw, borrowed from a snapshot. All coordinates are metres in the map frame.
+struct Scene<'a> {
+    segments: &'a [MapSegment],
+    polylines: &'a [Polyline],
+    trajectory: Vec<Vec2>,
+    scan_points: &'a [Vec2],
+    max_scan_points: usize,
+    width_px: u32,
+}
+
+impl<'a> Scene<'a> {
+    fn new(snapshot: &'a MapSnapshot, style: &PngStyle) -> Self {
+        Scene {
+            segments: &snapshot.segments,
+            polylines: &snapshot.polylines,
+            trajectory: snapshot.positions(),
+            scan_points: &snapshot.points,
+            max_scan_points: style.max_scan_points,
+            width_px: style.width_px,
         }
     }
 }
@@ -82,18 +93,20 @@ impl View {
     }
 }
 
-/// Renders the scene to PNG bytes.
-pub fn render_png(scene: &PngScene<'_>) -> Result<Vec<u8>, ExportError> {
+/// Renders the snapshot (segments, polylines, trajectory, points) to PNG bytes.
+pub fn render_png(snapshot: &MapSnapshot, style: &PngStyle) -> Result<Vec<u8>, ExportError> {
+    let scene = Scene::new(snapshot, style);
     encode(
-        &render_pixmap(scene, Path::new("map.png"))?,
+        &render_pixmap(&scene, Path::new("map.png"))?,
         Path::new("map.png"),
     )
 }
 
-/// Renders the scene and writes it to `path`.
-pub fn write_png(path: &Path, scene: &PngScene<'_>) -> Result<(), ExportError> {
-    let bytes = encode(&render_pixmap(scene, path)?, path)?;
-    std::fs::write(path, bytes).map_err(|e| ExportError::io(path, e))
+/// Renders the snapshot and writes it to `path` atomically.
+pub fn write_png(path: &Path, snapshot: &MapSnapshot, style: &PngStyle) -> Result<(), ExportError> {
+    let scene = Scene::new(snapshot, style);
+    let bytes = encode(&render_pixmap(&scene, path)?, path)?;
+    polymap_io::atomic::write_bytes_atomic(path, &bytes).map_err(|e| ExportError::io(path, e))
 }
 
 fn encode(pixmap: &Pixmap, path: &Path) -> Result<Vec<u8>, ExportError> {
@@ -104,7 +117,7 @@ fn encode(pixmap: &Pixmap, path: &Path) -> Result<Vec<u8>, ExportError> {
 }
 
 /// The picture as pixels; `path` names the picture in errors.
-fn render_pixmap(scene: &PngScene<'_>, path: &Path) -> Result<Pixmap, ExportError> {
+fn render_pixmap(scene: &Scene<'_>, path: &Path) -> Result<Pixmap, ExportError> {
     let (view, width, height) = layout(scene);
     if !(view.bounds.size().is_finite() && view.px_per_m.is_finite() && view.px_per_m > 0.0) {
         return Err(ExportError::Png {
@@ -119,14 +132,14 @@ fn render_pixmap(scene: &PngScene<'_>, path: &Path) -> Result<Pixmap, ExportErro
     pixmap.fill(Color::WHITE);
     draw_scan_points(&mut pixmap, view, scene);
     draw_segments(&mut pixmap, view, scene);
-    draw_trajectory(&mut pixmap, view, scene.trajectory);
+    draw_trajectory(&mut pixmap, view, &scene.trajectory);
     draw_scale_bar(&mut pixmap, view, width);
     Ok(pixmap)
 }
 
 /// The drawn area (everything plus a margin, at least 2 m across) and the picture's size.
-fn layout(scene: &PngScene<'_>) -> (View, u32, u32) {
-    let bounds = view_bounds(scene.segments, scene.trajectory, scene.scan_points);
+fn layout(scene: &Scene<'_>) -> (View, u32, u32) {
+    let bounds = view_bounds(scene.segments, &scene.trajectory, scene.scan_points);
     let size = bounds.size();
     let max_side = f64::from(MAX_SIDE_PX);
     let width = f64::from(scene.width_px.clamp(16, MAX_SIDE_PX));
@@ -152,7 +165,7 @@ fn stroke(width_px: f32) -> Stroke {
     }
 }
 
-fn draw_scan_points(pixmap: &mut Pixmap, view: View, scene: &PngScene<'_>) {
+fn draw_scan_points(pixmap: &mut Pixmap, view: View, scene: &Scene<'_>) {
     let points = scene.scan_points;
     if points.is_empty() || scene.max_scan_points == 0 {
         return;
@@ -168,11 +181,11 @@ fn draw_scan_points(pixmap: &mut Pixmap, view: View, scene: &PngScene<'_>) {
 }
 
 /// One stroked path per polyline in its palette colour, then the segments in no polyline.
-fn draw_segments(pixmap: &mut Pixmap, view: View, scene: &PngScene<'_>) {
+fn draw_segments(pixmap: &mut Pixmap, view: View, scene: &Scene<'_>) {
     let mut in_polyline = vec![false; scene.segments.len()];
     for (k, polyline) in scene.polylines.iter().enumerate() {
         let mut pb = PathBuilder::new();
-        for &i in polyline {
+        for &i in &polyline.segments {
             if let Some(m) = scene.segments.get(i) {
                 in_polyline[i] = true;
                 push_segment(&mut pb, view, m);
@@ -239,18 +252,21 @@ fn draw_scale_bar(pixmap: &mut Pixmap, view: View, width: u32) {
     let size = view.bounds.size();
     let length_m = round_length_m(0.2 * size.x);
     let bar_px = (length_m * view.px_per_m) as f32;
-    let font_px = (f64::from(width) / 400.0).clamp(2.0, 8.0) as f32;
+    // One grid unit of the stroke font: the label is 8 units tall (12–32 px).
+    let unit_px = (f64::from(width) / 800.0).clamp(1.5, 4.0) as f32;
     let x0 = (0.03 * f64::from(width)) as f32;
     let y = pixmap.height() as f32 - x0;
+    let tick = 2.0 * unit_px;
     let mut pb = PathBuilder::new();
-    pb.move_to(x0, y - 3.0 * font_px);
+    pb.move_to(x0, y - tick);
     pb.line_to(x0, y);
     pb.line_to(x0 + bar_px, y);
-    pb.line_to(x0 + bar_px, y - 3.0 * font_px);
+    pb.line_to(x0 + bar_px, y - tick);
     stroke_path(pixmap, pb, [0, 0, 0], 2.0);
     let black = paint([0, 0, 0], 255);
     let label = length_label(length_m);
-    font::draw_text(pixmap, &label, x0, y - 9.0 * font_px, font_px, &black);
+    let top = y - tick - (font::HEIGHT_UNITS + 2.0) * unit_px;
+    font::draw_text(pixmap, &label, x0, top, unit_px, &black);
 }
 
 #[cfg(test)]

@@ -9,9 +9,9 @@ fn seg(x0: f64, y0: f64, x1: f64, y1: f64) -> MapSegment {
 }
 
 /// The colour at a map point, read back from the encoded PNG.
-fn rgb_at(png: &[u8], scene: &PngScene<'_>, p: Vec2) -> [u8; 3] {
+fn rgb_at(png: &[u8], (snapshot, style): &(MapSnapshot, PngStyle), p: Vec2) -> [u8; 3] {
     let pixmap = Pixmap::decode_png(png).expect("a PNG we wrote");
-    let (view, _, _) = layout(scene);
+    let (view, _, _) = layout(&Scene::new(snapshot, style));
     let (x, y) = view.to_px(p);
     let px = pixmap
         .pixel(x as u32, y as u32)
@@ -28,14 +28,19 @@ fn segments_take_their_polyline_colour_and_the_size_follows_the_aspect() {
     ];
     let polylines = [vec![0], vec![1, 7]];
     let trajectory = [Vec2::new(2.0, 2.0), Vec2::new(18.0, 2.0)];
-    let scene = PngScene {
-        segments: &segments,
-        polylines: &polylines,
-        trajectory: &trajectory,
-        width_px: 800,
-        ..Default::default()
-    };
-    let png = render_png(&scene).expect("renders");
+    let scene = (
+        MapSnapshot::from_parts(
+            segments.to_vec(),
+            polylines.to_vec(),
+            &trajectory,
+            Vec::new(),
+        ),
+        PngStyle {
+            width_px: 800,
+            ..Default::default()
+        },
+    );
+    let png = render_png(&scene.0, &scene.1).expect("renders");
     let pixmap = Pixmap::decode_png(&png).expect("decodes");
     assert_eq!(pixmap.width(), 800);
     // 20 m x 10 m padded by 1.5 m each side: 23 x 13.
@@ -50,18 +55,16 @@ fn segments_take_their_polyline_colour_and_the_size_follows_the_aspect() {
 #[test]
 fn tall_maps_are_capped_and_empty_scenes_render() {
     let segments = [seg(0.0, 0.0, 0.0, 10_000.0)];
-    let scene = PngScene {
-        segments: &segments,
-        ..Default::default()
-    };
-    let pixmap = Pixmap::decode_png(&render_png(&scene).expect("renders")).expect("decodes");
+    let scene = MapSnapshot::from_parts(segments.to_vec(), Vec::new(), &[], Vec::new());
+    let png = render_png(&scene, &PngStyle::default()).expect("renders");
+    let pixmap = Pixmap::decode_png(&png).expect("decodes");
     assert_eq!(pixmap.height(), MAX_SIDE_PX);
     assert!(
         pixmap.width() < 1000,
         "width shrinks with the scale: {}",
         pixmap.width()
     );
-    let empty = render_png(&PngScene::default()).expect("renders");
+    let empty = render_png(&MapSnapshot::default(), &PngStyle::default()).expect("renders");
     let pixmap = Pixmap::decode_png(&empty).expect("decodes");
     assert_eq!(
         (pixmap.width(), pixmap.height()),
@@ -74,13 +77,14 @@ fn scan_points_are_grey_and_decimated() {
     let points: Vec<Vec2> = (0..1000)
         .map(|i| Vec2::new(f64::from(i) * 0.01, 1.0))
         .collect();
-    let scene = PngScene {
-        scan_points: &points,
-        max_scan_points: 10,
-        width_px: 400,
-        ..Default::default()
-    };
-    let png = render_png(&scene).expect("renders");
+    let scene = (
+        MapSnapshot::from_parts(Vec::new(), Vec::new(), &[], points),
+        PngStyle {
+            max_scan_points: 10,
+            width_px: 400,
+        },
+    );
+    let png = render_png(&scene.0, &scene.1).expect("renders");
     assert_eq!(
         rgb_at(&png, &scene, Vec2::new(0.0, 1.0)),
         [0x9a, 0xa0, 0xa6]
@@ -91,7 +95,8 @@ fn scan_points_are_grey_and_decimated() {
 #[test]
 fn write_png_names_the_file_on_error() {
     let path = Path::new("/nonexistent-dir/map.png");
-    let err = write_png(path, &PngScene::default()).expect_err("no such directory");
+    let err = write_png(path, &MapSnapshot::default(), &PngStyle::default())
+        .expect_err("no such directory");
     assert!(
         err.to_string().contains("/nonexistent-dir/map.png"),
         "{err}"
@@ -111,10 +116,8 @@ fn a_map_too_large_to_draw_is_a_clear_error_naming_the_file() {
     let path = dir.path().join("big.png");
     let err = write_png(
         &path,
-        &PngScene {
-            segments: &huge,
-            ..PngScene::default()
-        },
+        &MapSnapshot::from_parts(huge.to_vec(), Vec::new(), &[], Vec::new()),
+        &PngStyle::default(),
     )
     .unwrap_err()
     .to_string();

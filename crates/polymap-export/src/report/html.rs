@@ -197,7 +197,8 @@ pub fn write_report_html(path: &Path, data: &ReportData) -> Result<(), ExportErr
         },
         other => other,
     })?;
-    std::fs::write(path, html).map_err(|e| ExportError::io(path, e))
+    polymap_io::atomic::write_bytes_atomic(path, html.as_bytes())
+        .map_err(|e| ExportError::io(path, e))
 }
 
 #[cfg(test)]

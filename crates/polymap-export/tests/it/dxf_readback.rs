@@ -4,7 +4,8 @@ use ::dxf::Drawing;
 use ::dxf::entities::EntityType;
 use ::dxf::enums::AcadVersion;
 use polymap::geometry::Vec2;
-use polymap_export::dxf::{DxfScene, MAP_LAYER, TRAJECTORY_LAYER, write_dxf};
+use polymap_export::dxf::{MAP_LAYER, TRAJECTORY_LAYER, write_dxf};
+use polymap_io::snapshot::MapSnapshot;
 
 use crate::room;
 
@@ -14,11 +15,7 @@ fn dxf_reads_back_with_lines_layers_and_the_trajectory() {
     let path = dir.path().join("map.dxf");
     let (segments, polylines) = room::map_segments();
     let trajectory: Vec<Vec2> = (0..50).map(|t| room::pose(t, 50).translation()).collect();
-    let scene = DxfScene {
-        segments: &segments,
-        polylines: &polylines,
-        trajectory: &trajectory,
-    };
+    let scene = MapSnapshot::from_parts(segments.clone(), polylines, &trajectory, Vec::new());
     write_dxf(&path, &scene).expect("written");
 
     let drawing = Drawing::load_file(&path).expect("the dxf crate reads it");

@@ -1,7 +1,8 @@
 //! The PNG export decoded with the `png` crate.
 
 use polymap::geometry::Vec2;
-use polymap_export::png::{PngScene, write_png};
+use polymap_export::png::{PngStyle, write_png};
+use polymap_io::snapshot::MapSnapshot;
 
 use crate::room;
 
@@ -11,14 +12,12 @@ fn png_decodes_with_the_expected_size_and_coloured_walls() {
     let path = dir.path().join("map.png");
     let (segments, polylines) = room::map_segments();
     let trajectory: Vec<Vec2> = (0..50).map(|t| room::pose(t, 50).translation()).collect();
-    let scene = PngScene {
-        segments: &segments,
-        polylines: &polylines,
-        trajectory: &trajectory,
+    let scene = MapSnapshot::from_parts(segments, polylines, &trajectory, Vec::new());
+    let style = PngStyle {
         width_px: 1000,
         ..Default::default()
     };
-    write_png(&path, &scene).expect("written");
+    write_png(&path, &scene, &style).expect("written");
 
     let decoder = png::Decoder::new(std::io::BufReader::new(
         std::fs::File::open(&path).expect("open"),

@@ -10,7 +10,7 @@ use polymap_export::report::{
     ReportBudget, ReportData, ReportRecorder, ScanStat, SnapshotContent, write_report_html,
 };
 
-use crate::room;
+use crate::{room, tools};
 
 /// A run of `n` scans round the room: the map is the wall pieces seen so far.
 fn synthetic_report(n: u32, budget: ReportBudget) -> ReportData {
@@ -56,10 +56,10 @@ fn synthetic_report(n: u32, budget: ReportBudget) -> ReportData {
 }
 
 fn chromium_on_path() -> Option<PathBuf> {
-    let path = std::env::var_os("PATH")?;
-    std::env::split_paths(&path)
-        .flat_map(|dir| ["chromium", "chromium-browser"].map(|name| dir.join(name)))
-        .find(|p| p.is_file())
+    tools::required(
+        &["chromium", "chromium-browser"],
+        ".ci/run and scripts/check-report-in-browser.sh install it",
+    )
 }
 
 fn script() -> PathBuf {
@@ -84,9 +84,6 @@ fn report_of_a_synthetic_run_is_small_and_self_contained() {
 #[test]
 fn report_passes_its_self_test_in_headless_chromium() {
     let Some(chromium) = chromium_on_path() else {
-        println!(
-            "SKIPPED: chromium not installed (scripts/check-report-in-browser.sh installs it)"
-        );
         return;
     };
     let budget = ReportBudget {
@@ -132,7 +129,6 @@ fn report_passes_its_self_test_in_headless_chromium() {
 #[test]
 fn a_broken_report_fails_the_browser_check_with_its_reason() {
     let Some(chromium) = chromium_on_path() else {
-        println!("SKIPPED: chromium not installed");
         return;
     };
     let dir = tempfile::tempdir().expect("temp dir");

@@ -86,6 +86,16 @@ pub enum LineProblem {
         /// The cap ([`ReaderOptions::max_beams`](super::ReaderOptions)).
         cap: usize,
     },
+    /// A field has a value no laser can have.
+    #[error("{message}: field `{field}`: {reason}")]
+    BadGeometry {
+        /// Message type.
+        message: &'static str,
+        /// Name of the field.
+        field: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
     /// The line has a different number of whitespace-separated tokens than its counts imply.
     #[error("{message}: expected {expected} tokens, found {found}")]
     TokenCount {
@@ -99,10 +109,12 @@ pub enum LineProblem {
 }
 
 /// Shortens a token for an error message, on a character boundary.
+/// Control and escape characters are escaped (`\x1b`), so a message never carries them raw.
 pub(crate) fn shorten(token: &str) -> String {
     const MAX_CHARS: usize = 40;
-    match token.char_indices().nth(MAX_CHARS) {
+    let short = match token.char_indices().nth(MAX_CHARS) {
         Some((cut, _)) => format!("{}…", &token[..cut]),
         None => token.to_owned(),
-    }
+    };
+    crate::printable::printable(&short).into_owned()
 }

@@ -82,13 +82,14 @@ pub(crate) fn parse_flaser(
 struct LaserConfig {
     start_angle_rad: f64,
     angular_resolution_rad: f64,
+    field_of_view_rad: f64,
     maximum_range_m: f64,
 }
 
 fn parse_laser_config(f: &mut Fields<'_>) -> Result<LaserConfig, LineProblem> {
     f.integer("laser_type")?;
     let start_angle_rad = f.finite("start_angle")?;
-    f.finite("field_of_view")?;
+    let field_of_view_rad = f.finite("field_of_view")?;
     let angular_resolution_rad = f.finite("angular_resolution")?;
     let maximum_range_m = f.finite("maximum_range")?;
     f.finite("accuracy")?;
@@ -96,20 +97,58 @@ fn parse_laser_config(f: &mut Fields<'_>) -> Result<LaserConfig, LineProblem> {
     Ok(LaserConfig {
         start_angle_rad,
         angular_resolution_rad,
+        field_of_view_rad,
         maximum_range_m,
     })
 }
 
+/// Smallest angular resolution accepted, radians (0.0006°; real lasers step 0.06° or more).
+pub(crate) const MIN_RESOLUTION_RAD: f64 = 1e-5;
+
+/// Refuses a resolution that cannot be a laser's: not above [`MIN_RESOLUTION_RAD`], or beams
+/// spanning more than a full turn.
+fn check_resolution(config: &LaserConfig, beams: usize) -> Result<(), LineProblem> {
+    let res = config.angular_resolution_rad;
+    let span = res * beams.saturating_sub(1) as f64;
+    let reason = if res < MIN_RESOLUTION_RAD {
+        format!("{res} rad is not a laser's angular resolution (at least {MIN_RESOLUTION_RAD} rad)")
+    } else if span > std::f64::consts::TAU * 1.001 {
+        format!("{beams} beams at {res} rad span {span:.3} rad, more than a full turn")
+    } else {
+        return Ok(());
+    };
+    Err(LineProblem::BadGeometry {
+        message: "ROBOTLASER1",
+        field: "angular_resolution",
+        reason,
+    })
+}
+
+/// True when the field of view matches neither `(n − 1)` nor `n` beam steps (within one step
+/// or 1 %): the log contradicts itself, and the beams follow the resolution.
+fn fov_mismatch(config: &LaserConfig, beams: usize) -> bool {
+    let (res, fov) = (config.angular_resolution_rad, config.field_of_view_rad);
+    let tolerance = res.max(0.01 * fov.abs());
+    let n = beams as f64;
+    beams > 1
+        && [(n - 1.0) * res, n * res]
+            .iter()
+            .all(|span| (span - fov).abs() > tolerance)
+}
+
 /// Parses a `ROBOTLASER1` line, which carries its own geometry and both poses.
+///
+/// Returns the scan and whether its field of view contradicts its beam count and resolution.
 pub(crate) fn parse_robotlaser(
     rest: &str,
     found: usize,
     max_beams: usize,
-) -> Result<RangeScan, LineProblem> {
+) -> Result<(RangeScan, bool), LineProblem> {
     const M: &str = "ROBOTLASER1";
     let mut f = Fields::new(rest, M);
     let config = parse_laser_config(&mut f)?;
     let n = f.count("num_readings", max_beams)?;
+    check_resolution(&config, n)?;
     // The readings and the remission count must fit before anything is allocated.
     if found < ROBOTLASER_FIXED + n {
         return Err(token_count_error(M, ROBOTLASER_FIXED + n, found));
@@ -135,7 +174,7 @@ pub(crate) fn parse_robotlaser(
         f.finite(field)?;
     }
     let stamp = f.trailer()?;
-    Ok(RangeScan {
+    let scan = RangeScan {
         stamp,
         ranges_m,
         angle_min_rad: config.start_angle_rad,
@@ -143,7 +182,8 @@ pub(crate) fn parse_robotlaser(
         max_range_m: config.maximum_range_m,
         robot_from_laser: odom_from_robot.between(&odom_from_laser),
         odom_from_robot: Some(odom_from_robot),
-    })
+    };
+    Ok((scan, fov_mismatch(&config, n)))
 }
 
 /// Parses `ODOM x y theta tv rv accel trailer`.

@@ -48,10 +48,12 @@ mod writer;
 mod tests;
 #[cfg(test)]
 mod tests_malformed;
+#[cfg(test)]
+mod tests_oddities;
 
 pub use error::{CarmenError, LineProblem};
 pub use geometry::{FlaserGeometry, flaser_beam_geometry};
 pub use messages::OdometryReading;
 pub use reader::{CarmenReader, CarmenRecord, ReaderOptions};
-pub use stats::{CarmenStats, OTHER_TYPES};
+pub use stats::{CarmenStats, OTHER_TYPES, Oddity};
 pub use writer::{CarmenWriter, write_flaser_log};

@@ -34,19 +34,60 @@ pub struct CarmenStats {
     pub no_return_readings: u64,
     /// Readings that are real returns.
     pub valid_readings: u64,
+    /// Scans stamped earlier than the scan before them.
+    pub stamps_backwards: Oddity,
+    /// Scans stamped exactly as the scan before them.
+    pub stamps_repeated: Oddity,
+    /// `ROBOTLASER1` scans whose field of view contradicts their beam count and resolution (the
+    /// beams follow the resolution).
+    pub fov_mismatches: Oddity,
+    /// Scans whose odometry pose jumped more than
+    /// [`ReaderOptions::max_odometry_jump_m`](super::ReaderOptions) from the scan before: their
+    /// odometry is dropped (the mapper then has no odometry guess for them).
+    pub odometry_jumps: Oddity,
+}
+
+/// How often something odd but readable occurred, and where first.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Oddity {
+    /// How many times.
+    pub count: u64,
+    /// The 1-based line of the first time (0 when never).
+    pub first_line: u64,
+    /// The largest size seen, in the oddity's unit (metres for odometry jumps, else 0).
+    pub largest: f64,
+}
+
+impl Oddity {
+    /// Counts one occurrence on `line`, of size `size`.
+    pub(crate) fn count(&mut self, line: u64, size: f64) {
+        if self.count == 0 {
+            self.first_line = line;
+        }
+        self.count += 1;
+        self.largest = self.largest.max(size);
+    }
 }
 
 impl CarmenStats {
     /// Counts a line of a message type the reader skips.
     pub(crate) fn count_skipped_type(&mut self, name: &str) {
-        if let Some(count) = self.skipped_types.get_mut(name) {
+        if let Some(count) = self
+            .skipped_types
+            .get_mut(crate::printable::printable(name).as_ref())
+        {
             *count += 1;
             return;
         }
         let trackable = self.skipped_types.len() < MAX_SKIPPED_TYPE_NAMES
             && name.chars().count() <= MAX_TYPE_NAME_CHARS;
-        let key = if trackable { name } else { OTHER_TYPES };
-        *self.skipped_types.entry(key.to_owned()).or_insert(0) += 1;
+        // Names are kept printable: they end up in messages and summary.json.
+        let key = if trackable {
+            crate::printable::printable(name).into_owned()
+        } else {
+            OTHER_TYPES.to_owned()
+        };
+        *self.skipped_types.entry(key).or_insert(0) += 1;
     }
 
     /// Counts the valid and no-return readings of a scan.
@@ -54,6 +95,39 @@ impl CarmenStats {
         let valid = scan.valid_count() as u64;
         self.valid_readings += valid;
         self.no_return_readings += scan.ranges_m.len() as u64 - valid;
+    }
+
+    /// One warning per kind of oddity seen, naming the count and the first line, e.g.
+    /// `"631 scans are stamped earlier than the scan before them (first: line 1042)"`.
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut say = |o: &Oddity, what: &str| {
+            if o.count > 0 {
+                out.push(format!("{} {what} (first: line {})", o.count, o.first_line));
+            }
+        };
+        say(
+            &self.stamps_backwards,
+            "scan(s) stamped earlier than the scan before them; trajectory.tum keeps the log's stamps",
+        );
+        say(
+            &self.stamps_repeated,
+            "scan(s) stamped the same as the scan before them; trajectory.tum keeps the log's stamps",
+        );
+        say(
+            &self.fov_mismatches,
+            "ROBOTLASER1 scan(s) whose field of view does not match beam count × resolution; the beams follow the resolution",
+        );
+        if self.odometry_jumps.count > 0 {
+            say(
+                &self.odometry_jumps,
+                &format!(
+                    "scan(s) whose odometry jumped (largest {:.1} m) from the scan before; their odometry is not used",
+                    self.odometry_jumps.largest
+                ),
+            );
+        }
+        out
     }
 
     /// Total lines of all skipped message types.

@@ -113,7 +113,7 @@ const BAD_LINES: [(&str, &str); 21] = [
         "TokenCount { message: \"ROBOTLASER1\"",
     ),
     (
-        "ROBOTLASER1 0 -1.5 3 0.75 30 0.01 0 900 1 2",
+        "ROBOTLASER1 0 -1.5 3 0.003 30 0.01 0 900 1 2",
         "expected: 924, found: 11",
     ),
     (

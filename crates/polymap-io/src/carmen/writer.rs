@@ -189,12 +189,23 @@ impl<W: Write> CarmenWriter<W> {
 }
 
 /// Writes `scans` as a CARMEN log file (see [`CarmenWriter`]).
+/// The file is written atomically (see [`crate::atomic`]).
 pub fn write_flaser_log(path: impl AsRef<Path>, scans: &[RangeScan]) -> Result<(), CarmenError> {
-    let mut writer = CarmenWriter::create(path)?;
-    for scan in scans {
-        writer.write_scan(scan)?;
-    }
-    writer.finish().map(drop)
+    let path = path.as_ref();
+    crate::atomic::write_atomic_with(
+        path,
+        |out| {
+            let mut writer = CarmenWriter::new(out, path)?;
+            for scan in scans {
+                writer.write_scan(scan)?;
+            }
+            writer.finish().map(drop)
+        },
+        |source| CarmenError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+    )
 }
 
 /// True when a `FLASER` line (plus `PARAM`s) describes `scan` exactly.

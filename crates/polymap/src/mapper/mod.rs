@@ -295,16 +295,37 @@ impl Mapper {
         let clock = Instant::now();
         let mut points = Vec::new();
         scan.points_in_robot(&mut points);
+        let mut prepared = Self::prepare_points(
+            config,
+            points,
+            scan.angle_increment_rad,
+            scan.odom_from_robot,
+        );
+        prepared.extract_s = clock.elapsed().as_secs_f64();
+        prepared
+    }
+
+    /// [`Mapper::prepare`] for a scan already converted to points: `points_in_robot` are its
+    /// valid returns in beam order (robot frame, metres, as [`RangeScan::points_in_robot`]
+    /// gives them), `angle_increment_rad` its beam step. For callers that keep the points for
+    /// something else too, so the ranges are converted once.
+    pub fn prepare_points(
+        config: &Config,
+        mut points_in_robot: Vec<Vec2>,
+        angle_increment_rad: f64,
+        odom_from_robot: Option<Pose2>,
+    ) -> PreparedScan {
+        let clock = Instant::now();
         let max_range_2 = config.extract.max_range_m.powi(2);
-        points.retain(|p| p.length_squared() <= max_range_2);
-        let segments = extract_segments(&points, scan.angle_increment_rad, &config.extract)
+        points_in_robot.retain(|p| p.length_squared() <= max_range_2);
+        let segments = extract_segments(&points_in_robot, angle_increment_rad, &config.extract)
             .iter()
             .map(|e| e.segment)
             .collect();
         PreparedScan {
-            points_in_robot: points,
+            points_in_robot,
             segments_in_robot: segments,
-            odom_from_robot: scan.odom_from_robot,
+            odom_from_robot,
             extract_s: clock.elapsed().as_secs_f64(),
         }
     }

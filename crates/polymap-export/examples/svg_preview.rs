@@ -1,12 +1,13 @@
 //! Draws the scan points and odometry trajectory of a CARMEN log (first N scans) as SVG.
 //!
-//! `cargo run --release -p polymap-io --example svg_preview -- LOG.clf OUT.svg [N]`
+//! `cargo run --release -p polymap-export --example svg_preview -- LOG.clf OUT.svg [N]`
 
 use std::process::ExitCode;
 
 use polymap::geometry::Vec2;
+use polymap_export::svg::{SvgStyle, write_svg};
 use polymap_io::carmen::{CarmenReader, ReaderOptions};
-use polymap_io::svg::{SvgScene, render_svg};
+use polymap_io::snapshot::MapSnapshot;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().collect();
@@ -40,12 +41,10 @@ fn run(log: &str, out: &str, max_scans: usize) -> Result<(), Box<dyn std::error:
         "{log}: first {} scans in the odometry frame",
         trajectory.len()
     );
-    let scene = SvgScene {
-        title: &title,
-        trajectory: &trajectory,
-        scan_points: &points,
-        ..Default::default()
+    let snapshot = MapSnapshot {
+        title,
+        ..MapSnapshot::from_parts(Vec::new(), Vec::new(), &trajectory, points)
     };
-    std::fs::write(out, render_svg(&scene))?;
+    write_svg(std::path::Path::new(out), &snapshot, &SvgStyle::default())?;
     Ok(())
 }

@@ -1,4 +1,25 @@
+use polymap::map::MapSegment;
+
 use super::*;
+
+/// A snapshot of the given parts.
+fn snap(
+    title: &str,
+    segments: &[MapSegment],
+    polylines: &[Vec<usize>],
+    trajectory: &[Vec2],
+    points: &[Vec2],
+) -> MapSnapshot {
+    MapSnapshot {
+        title: title.to_owned(),
+        ..MapSnapshot::from_parts(
+            segments.to_vec(),
+            polylines.to_vec(),
+            trajectory,
+            points.to_vec(),
+        )
+    }
+}
 
 fn segment(x0: f64, y0: f64, x1: f64, y1: f64) -> MapSegment {
     MapSegment {
@@ -43,15 +64,14 @@ fn full_scene_is_well_formed_with_flipped_metre_view_box() {
     let points: Vec<Vec2> = (0..1000)
         .map(|i| Vec2::new(i as f64 * 0.02, 0.05))
         .collect();
-    let scene = SvgScene {
-        title: "intel & \"friends\" <run 1> 'x'",
-        segments: &segments,
-        polylines: &polylines,
-        trajectory: &trajectory,
-        scan_points: &points,
-        ..Default::default()
-    };
-    let svg = render_svg(&scene);
+    let scene = snap(
+        "intel & \"friends\" <run 1> 'x'",
+        &segments,
+        &polylines,
+        &trajectory,
+        &points,
+    );
+    let svg = render_svg(&scene, &SvgStyle::default());
     let doc = parse(&svg);
     let root = doc.root_element();
     assert_eq!(root.tag_name().name(), "svg");
@@ -77,8 +97,12 @@ fn full_scene_is_well_formed_with_flipped_metre_view_box() {
     );
     assert_eq!(paths_with_title(&doc, "segments in no polyline").len(), 1);
     assert!(doc.descendants().any(|n| n.has_tag_name("circle")));
+    // librsvg ignores vector-effect: widths must be right without it, in metres, about
+    // 2 px at the nominal width (the view is about 23 m wide, 1200 px).
     for path in doc.descendants().filter(|n| n.has_tag_name("path")) {
-        assert_eq!(path.attribute("vector-effect"), Some("non-scaling-stroke"));
+        assert_eq!(path.attribute("vector-effect"), None);
+        let w: f64 = path.attribute("stroke-width").unwrap().parse().unwrap();
+        assert!(w > 0.005 && w < 0.05, "stroke width {w} m");
     }
 }
 
@@ -88,12 +112,8 @@ fn each_polyline_has_its_own_colour() {
         .map(|i| segment(i as f64, 0.0, i as f64, 1.0))
         .collect();
     let polylines: Vec<Vec<usize>> = (0..5).map(|i| vec![i]).collect();
-    let scene = SvgScene {
-        segments: &segments,
-        polylines: &polylines,
-        ..Default::default()
-    };
-    let svg = render_svg(&scene);
+    let scene = snap("", &segments, &polylines, &[], &[]);
+    let svg = render_svg(&scene, &SvgStyle::default());
     let doc = parse(&svg);
     let colours: Vec<&str> = paths_with_title(&doc, "polyline")
         .iter()
@@ -111,10 +131,7 @@ fn each_polyline_has_its_own_colour() {
 #[test]
 fn scale_bar_has_a_round_label() {
     let segments = [segment(0.0, 0.0, 37.0, 12.0)];
-    let svg = render_svg(&SvgScene {
-        segments: &segments,
-        ..Default::default()
-    });
+    let svg = render_svg(&snap("", &segments, &[], &[], &[]), &SvgStyle::default());
     let doc = parse(&svg);
     let bar = doc
         .descendants()
@@ -135,12 +152,13 @@ fn scan_points_are_decimated_to_the_cap() {
     let points: Vec<Vec2> = (0..10_001)
         .map(|i| Vec2::new(i as f64 * 1e-3, 0.0))
         .collect();
-    let scene = SvgScene {
-        scan_points: &points,
-        max_scan_points: 1000,
-        ..Default::default()
-    };
-    let svg = render_svg(&scene);
+    let scene = snap("", &[], &[], &[], &points);
+    let svg = render_svg(
+        &scene,
+        &SvgStyle {
+            max_scan_points: 1000,
+        },
+    );
     parse(&svg);
     let drawn = svg.matches("h0").count();
     assert!((900..=1000).contains(&drawn), "{drawn}");
@@ -148,19 +166,14 @@ fn scan_points_are_decimated_to_the_cap() {
 
 #[test]
 fn empty_and_degenerate_scenes_are_well_formed() {
-    parse(&render_svg(&SvgScene::default()));
+    parse(&render_svg(&MapSnapshot::default(), &SvgStyle::default()));
     let segments = [
         segment(f64::NAN, 0.0, 1.0, f64::INFINITY),
         segment(3.0, 3.0, 3.0, 3.0),
     ];
     let trajectory = [Vec2::new(f64::NAN, 1.0)];
-    let scene = SvgScene {
-        title: "\u{1}control\u{0} chars",
-        segments: &segments,
-        trajectory: &trajectory,
-        ..Default::default()
-    };
-    let svg = render_svg(&scene);
+    let scene = snap("\u{1}control\u{0} chars", &segments, &[], &trajectory, &[]);
+    let svg = render_svg(&scene, &SvgStyle::default());
     parse(&svg);
     assert!(!svg.contains("NaN") && !svg.contains("inf"));
 }

@@ -1,0 +1,47 @@
+//! Counted warnings about what the reader accepted but found odd.
+
+use polymap::mapper::TrackingSummary;
+use polymap_io::carmen::CarmenStats;
+
+/// Prints one warning line per kind of oddity the reader counted.
+pub fn report_reader_warnings(stats: &CarmenStats) {
+    for w in stats.warnings() {
+        eprintln!("polymap: warning: {w}");
+    }
+}
+
+/// Says when tracking failed: the scans lost (not in the map), or a large share of weak ones.
+pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
+    if t.lost > 0 {
+        let ranges: Vec<String> = t
+            .lost_ranges
+            .iter()
+            .take(10)
+            .map(|[a, b]| {
+                if a == b {
+                    format!("{a}")
+                } else {
+                    format!("{a}-{b}")
+                }
+            })
+            .collect();
+        let more = if t.lost_ranges.len() > 10 {
+            ", ..."
+        } else {
+            ""
+        };
+        eprintln!(
+            "polymap: warning: tracking lost {} of {scans} scans (scans {}{more}): they are not \
+             in the map and their poses are unreliable (summary.json: tracking)",
+            t.lost,
+            ranges.join(", ")
+        );
+    }
+    if t.weak as f64 > 0.1 * scans as f64 {
+        eprintln!(
+            "polymap: warning: tracking was weak on {} of {scans} scans (a direction came from \
+             the motion prior, the fit was poor or ambiguous): check the map",
+            t.weak
+        );
+    }
+}

@@ -1,0 +1,20 @@
+//! # polymap-pipeline — a mapping run as a library
+//!
+//! The `polymap map` command is this crate plus argument parsing and a progress bar:
+//!
+//! - [`pipeline`]: read → prepare → push → record. Scans come from any
+//!   [`ScanSource`](polymap_io::source::ScanSource); reading and preparation (ranges to points,
+//!   once; segment extraction) run ahead on a second thread, mapping stays in log order; a stop
+//!   flag ends a run early keeping what was mapped.
+//! - [`folder`]: the run folder. Checked (a folder, writable) before mapping; written in a fixed
+//!   order, the small contract files first (`map.json`, `trajectory.tum`, `summary.json`),
+//!   every file atomically; outputs of an earlier run that this run does not write are
+//!   removed, and said so.
+//!
+//! Everything is in metres and radians, map frame unless a name says otherwise.
+
+#![deny(missing_docs)]
+#![forbid(unsafe_code)]
+
+pub mod folder;
+pub mod pipeline;
