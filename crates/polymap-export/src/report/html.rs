@@ -27,6 +27,7 @@ struct Payload<'a> {
     trajectory_pose: Vec<f64>,
     snapshots: Vec<SnapshotPayload>,
     series: [SeriesPayload<'a>; 4],
+    lost_ranges: &'a [[u32; 2]],
 }
 
 #[derive(Serialize)]
@@ -117,6 +118,7 @@ fn payload(data: &ReportData) -> Payload<'_> {
             series("scan segments", "", &d.scan_segments, 0),
             series("ICP iterations", "", &d.icp_iterations, 0),
         ],
+        lost_ranges: &data.lost_ranges,
     }
 }
 

@@ -57,6 +57,10 @@ pub struct ReportData {
     pub snapshots: Vec<Snapshot>,
     /// Per-scan diagnostics, decimated for plotting.
     pub series: ScanSeries,
+    /// Inclusive ranges `[first, last]` of consecutive scans whose tracking was lost (shaded on
+    /// the page's time lines).
+    #[serde(default)]
+    pub lost_ranges: Vec<[u32; 2]>,
 }
 
 /// One robot pose of the trajectory.
@@ -129,6 +133,9 @@ pub struct ScanStat {
     pub scan_segments: u32,
     /// Segments in the map after the scan.
     pub map_segments: u32,
+    /// Tracking was lost on this scan.
+    #[serde(default)]
+    pub lost: bool,
 }
 
 impl ScanStat {
@@ -142,6 +149,7 @@ impl ScanStat {
             icp_iterations: d.align.as_ref().map_or(0, |a| sat(a.iterations)),
             scan_segments: sat(d.scan_segments),
             map_segments: sat(d.map_segments),
+            lost: d.tracking.verdict == polymap::align::Verdict::Lost,
         }
     }
 }

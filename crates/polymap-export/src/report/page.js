@@ -238,6 +238,12 @@
       ctx.strokeStyle = colours[k]; ctx.lineWidth = 1.2; ctx.stroke();
     });
     axes(ctx, left, top, w, h, 0, xmax, ymin, ymax, niceTicks(xmax), '', list[0].unit);
+    // Scans where tracking was lost, shaded across the plot.
+    ctx.fillStyle = 'rgba(200, 30, 30, 0.25)';
+    (D.lost_ranges || []).forEach(function (r) {
+      var x0 = left + w * r[0] / xmax, x1 = left + w * (r[1] + 1) / xmax;
+      ctx.fillRect(x0, top, Math.max(1, x1 - x0), h);
+    });
     var cx = left + w * currentScan() / xmax;
     ctx.strokeStyle = TRAJECTORY; ctx.lineWidth = 1.5;
     ctx.beginPath(); ctx.moveTo(cx, top); ctx.lineTo(cx, top + h); ctx.stroke();
@@ -259,7 +265,8 @@
     var snap = currentSnapshot(), scan = currentScan();
     $('map-scan').textContent = String(scan);
     $('hist-scan').textContent = String(scan);
-    $('slider-label').textContent = 'scan ' + scan + ' of ' + D.total_scans +
+    var lost = (D.lost_ranges || []).some(function (r) { return r[0] <= scan && scan <= r[1]; });
+    $('slider-label').textContent = 'scan ' + scan + (lost ? ' (tracking lost)' : '') + ' of ' + D.total_scans +
       ' · snapshot ' + (snaps.length ? state.index + 1 : 0) + '/' + snaps.length;
     var rows = [
       ['segments at this time', snap ? snap.segments.length / 4 : '–'],

@@ -50,6 +50,7 @@ pub struct ReportRecorder {
     iterations: MinMaxSeries,
     scan_segments: MinMaxSeries,
     map_segments: MinMaxSeries,
+    lost_ranges: Vec<[u32; 2]>,
 }
 
 impl ReportRecorder {
@@ -66,6 +67,7 @@ impl ReportRecorder {
             iterations: series(),
             scan_segments: series(),
             map_segments: series(),
+            lost_ranges: Vec::new(),
             budget,
         }
     }
@@ -132,6 +134,13 @@ impl ReportRecorder {
         self.scan_segments
             .push(point(f64::from(stat.scan_segments)));
         self.map_segments.push(point(f64::from(stat.map_segments)));
+        if stat.lost {
+            let t = stat.scan_index;
+            match self.lost_ranges.last_mut() {
+                Some(r) if r[1].checked_add(1) == Some(t) => r[1] = t,
+                _ => self.lost_ranges.push([t, t]),
+            }
+        }
     }
 
     /// The report data, with the final map (`final_segments`, `polylines` as indices into it)
@@ -179,6 +188,7 @@ impl ReportRecorder {
                 scan_segments: self.scan_segments.points(),
                 map_segments: self.map_segments.points(),
             },
+            lost_ranges: self.lost_ranges,
         }
     }
 }

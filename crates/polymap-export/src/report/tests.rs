@@ -17,6 +17,7 @@ fn record_growing_map(scans: u32, budget: ReportBudget) -> (ReportData, u32) {
             icp_iterations: 3,
             scan_segments: 4,
             map_segments: t + 1,
+            lost: false,
         };
         recorder.record(stat, Pose2::new(f64::from(t), 0.0, 0.0), || {
             built += 1;
@@ -131,6 +132,7 @@ fn an_intel_sized_run_renders_to_a_few_megabytes() {
             icp_iterations: 5,
             scan_segments: 12,
             map_segments: (t / 9).min(1500),
+            lost: false,
         };
         let pose = Pose2::new(
             0.01 * f64::from(t % 3000),
@@ -153,4 +155,21 @@ fn an_intel_sized_run_renders_to_a_few_megabytes() {
     );
     assert!(html.len() < 4_000_000, "{} bytes", html.len());
     assert!(data.snapshots.len() >= 40, "{}", data.snapshots.len());
+}
+
+#[test]
+fn lost_scans_become_ranges_on_the_time_line() {
+    let mut recorder = ReportRecorder::new("lost", ReportBudget::default());
+    for t in 0..10u32 {
+        let stat = ScanStat {
+            scan_index: t,
+            lost: matches!(t, 2..=4 | 7),
+            ..Default::default()
+        };
+        recorder.record(stat, Pose2::IDENTITY, SnapshotContent::default);
+    }
+    let data = recorder.finish(Vec::new(), Vec::new(), SnapshotContent::default());
+    assert_eq!(data.lost_ranges, vec![[2, 4], [7, 7]]);
+    let html = crate::report::render_report_html(&data).expect("renders");
+    assert!(html.contains("\"lost_ranges\":[[2,4],[7,7]]"));
 }

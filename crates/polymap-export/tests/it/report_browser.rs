@@ -44,6 +44,7 @@ fn synthetic_report(n: u32, budget: ReportBudget) -> ReportData {
             icp_iterations: 4 + t % 3,
             scan_segments: 6,
             map_segments: map.len() as u32,
+            lost: false,
         };
         recorder.record(stat, pose, || {
             SnapshotContent::of_map(&map, t + 1, &DirectionParams::default())
