@@ -1,6 +1,8 @@
 //! A 2D pose graph and its least-squares solution (Gauss–Newton, preconditioned conjugate
 //! gradients on the sparse normal equations, Cauchy weights on loop edges).
 
+use glam::{DMat3, DVec3};
+
 use crate::geometry::{Pose2, normalize_angle_rad};
 
 /// A relative-pose measurement between two nodes: `to` seen from `from`.
@@ -23,13 +25,17 @@ pub struct Edge {
 /// Scale of the Cauchy weight on loop edges, in standard deviations.
 const CAUCHY_SCALE: f64 = 3.0;
 
-type M3 = [[f64; 3]; 3];
-type V3 = [f64; 3];
+/// A weak prior on every free node keeps every diagonal block invertible (a node seen by
+/// nothing stays put).
+const PRIOR_WEIGHT: f64 = 1e-6;
+
+/// Gauss–Newton stops when no node moves by more than this (metres or radians).
+const CONVERGED_STEP: f64 = 1e-4;
 
 /// The residual of an edge at the given node poses, in the measurement's frame
 /// (`measured⁻¹ ∘ (from⁻¹ ∘ to)`), with its Jacobians with respect to `from` and `to`
 /// (x, y, θ in the map frame).
-fn residual(e: &Edge, a: &Pose2, b: &Pose2) -> (V3, M3, M3) {
+fn residual(e: &Edge, a: &Pose2, b: &Pose2) -> (DVec3, DMat3, DMat3) {
     let (sa, ca) = a.theta_rad.sin_cos();
     let (sz, cz) = e.measured.theta_rad.sin_cos();
     let dx = b.x_m - a.x_m;
@@ -39,73 +45,49 @@ fn residual(e: &Edge, a: &Pose2, b: &Pose2) -> (V3, M3, M3) {
     let ty = -sa * dx + ca * dy;
     let ux = tx - e.measured.x_m;
     let uy = ty - e.measured.y_m;
-    let r = [
+    let r = DVec3::new(
         cz * ux + sz * uy,
         -sz * ux + cz * uy,
         normalize_angle_rad(b.theta_rad - a.theta_rad - e.measured.theta_rad),
-    ];
-    // d(tx, ty)/d(a.x, a.y) = -R_a^T; d/d(a.θ) = (ty, -tx); d/d(b.x, b.y) = R_a^T.
-    let rz = |vx: f64, vy: f64| [cz * vx + sz * vy, -sz * vx + cz * vy];
-    let c0 = rz(-ca, sa);
-    let c1 = rz(-sa, -ca);
-    let c2 = rz(ty, -tx);
-    let ja = [
-        [c0[0], c1[0], c2[0]],
-        [c0[1], c1[1], c2[1]],
-        [0.0, 0.0, -1.0],
-    ];
-    let d0 = rz(ca, -sa);
-    let d1 = rz(sa, ca);
-    let jb = [[d0[0], d1[0], 0.0], [d0[1], d1[1], 0.0], [0.0, 0.0, 1.0]];
+    );
+    // d(tx, ty)/d(a.x, a.y) = -R_a^T; d/d(a.θ) = (ty, -tx); d/d(b.x, b.y) = R_a^T; each
+    // column turned into the measurement's frame.
+    let rz = |vx: f64, vy: f64, vt: f64| DVec3::new(cz * vx + sz * vy, -sz * vx + cz * vy, vt);
+    let ja = DMat3::from_cols(rz(-ca, sa, 0.0), rz(-sa, -ca, 0.0), rz(ty, -tx, -1.0));
+    let jb = DMat3::from_cols(rz(ca, -sa, 0.0), rz(sa, ca, 0.0), DVec3::Z);
     (r, ja, jb)
 }
 
-/// `Jᵀ W J` and `Jᵀ W r` pieces for diagonal `W`.
-fn jt_w_j(j1: &M3, w: &V3, j2: &M3) -> M3 {
-    let mut m = [[0.0; 3]; 3];
-    for (r, row) in m.iter_mut().enumerate() {
-        for (c, v) in row.iter_mut().enumerate() {
-            *v = (0..3).map(|k| j1[k][r] * w[k] * j2[k][c]).sum();
-        }
-    }
-    m
+/// `J1ᵀ W J2` for the diagonal weight `W = diag(w)`.
+fn jt_w_j(j1: &DMat3, w: DVec3, j2: &DMat3) -> DMat3 {
+    let weighted_t = DMat3::from_cols(j1.row(0) * w.x, j1.row(1) * w.y, j1.row(2) * w.z);
+    weighted_t * *j2
 }
 
-fn mul(m: &M3, v: &V3) -> V3 {
-    [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
+/// The sum over blocks of their dot products.
+fn dot(a: &[DVec3], b: &[DVec3]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum()
 }
 
-fn mul_t(m: &M3, v: &V3) -> V3 {
-    [0, 1, 2].map(|c| m[0][c] * v[0] + m[1][c] * v[1] + m[2][c] * v[2])
-}
-
-fn add(a: &mut V3, b: &V3) {
-    a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-}
-
-fn dot(a: &[V3], b: &[V3]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| x[0] * y[0] + x[1] * y[1] + x[2] * y[2])
-        .sum()
-}
-
-/// The inverse of a symmetric positive definite 3×3 matrix (the identity when singular).
-fn inverse(m: &M3) -> M3 {
-    let det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
-        - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
-        + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+/// The inverse of a symmetric positive definite 3×3 matrix (the identity when singular), by
+/// the adjugate (cofactors expanded along the first row).
+fn inverse(m: &DMat3) -> DMat3 {
+    let e = |r: usize, c: usize| m.col(c)[r];
+    let det = e(0, 0) * (e(1, 1) * e(2, 2) - e(1, 2) * e(2, 1))
+        - e(0, 1) * (e(1, 0) * e(2, 2) - e(1, 2) * e(2, 0))
+        + e(0, 2) * (e(1, 0) * e(2, 1) - e(1, 1) * e(2, 0));
     if det.abs() <= 1e-300 || !det.is_finite() {
-        return [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        return DMat3::IDENTITY;
     }
     let c =
-        |r1: usize, r2: usize, c1: usize, c2: usize| m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1];
-    let adj = [
+        |r1: usize, r2: usize, c1: usize, c2: usize| e(r1, c1) * e(r2, c2) - e(r1, c2) * e(r2, c1);
+    let adjugate = [
         [c(1, 2, 1, 2), -c(0, 2, 1, 2), c(0, 1, 1, 2)],
         [-c(1, 2, 0, 2), c(0, 2, 0, 2), -c(0, 1, 0, 2)],
         [c(1, 2, 0, 1), -c(0, 2, 0, 1), c(0, 1, 0, 1)],
     ];
-    adj.map(|row| row.map(|v| v / det))
+    // Rows of the adjugate, divided by the determinant, as a column-major matrix.
+    DMat3::from_cols_array_2d(&adjugate.map(|row| row.map(|v| v / det))).transpose()
 }
 
 /// Moves the poses of nodes `free` (a contiguous range; the others stay fixed) to minimise the
@@ -131,74 +113,92 @@ pub fn optimize(
                 && (free.contains(&e.from) || free.contains(&e.to))
         })
         .collect();
-    let index = |i: usize| free.contains(&i).then(|| i - free.start);
     for iteration in 0..max_iterations {
-        let mut diag = vec![[[0.0; 3]; 3]; n];
-        let mut off: Vec<(usize, usize, M3)> = Vec::new();
-        let mut g = vec![[0.0; 3]; n];
-        for e in &active {
-            let (r, ja, jb) = residual(e, &poses[e.from], &poses[e.to]);
-            let wt = 1.0 / (e.sigma_m * e.sigma_m);
-            let wr = 1.0 / (e.sigma_rad * e.sigma_rad);
-            let mut w = [wt, wt, wr];
-            if e.robust {
-                let chi2 = r[0] * r[0] * wt + r[1] * r[1] * wt + r[2] * r[2] * wr;
-                let k = 1.0 / (1.0 + chi2 / (CAUCHY_SCALE * CAUCHY_SCALE));
-                w = w.map(|x| x * k);
-            }
-            let wr_v = [w[0] * r[0], w[1] * r[1], w[2] * r[2]];
-            let (ia, ib) = (index(e.from), index(e.to));
-            for (i, j) in [(ia, &ja), (ib, &jb)] {
-                if let Some(i) = i {
-                    let h = jt_w_j(j, &w, j);
-                    diag[i]
-                        .iter_mut()
-                        .flatten()
-                        .zip(h.iter().flatten())
-                        .for_each(|(x, y)| *x += y);
-                    add(&mut g[i], &mul_t(j, &wr_v));
-                }
-            }
-            if let (Some(a), Some(b)) = (ia, ib) {
-                off.push((a, b, jt_w_j(&ja, &w, &jb)));
-            }
-        }
-        // A weak prior keeps every block invertible (a node seen by nothing stays put).
-        for d in &mut diag {
-            for (k, row) in d.iter_mut().enumerate() {
-                row[k] += 1e-6;
-            }
-        }
+        let (diag, off, g) = normal_equations(poses, &active, &free);
         let step = solve(&diag, &off, &g, 2 * n + 50);
         let mut largest: f64 = 0.0;
         for (k, s) in step.iter().enumerate() {
             let p = &mut poses[free.start + k];
-            *p = Pose2::new(p.x_m - s[0], p.y_m - s[1], p.theta_rad - s[2]);
-            largest = largest.max(s[0].hypot(s[1])).max(s[2].abs());
+            *p = Pose2::new(p.x_m - s.x, p.y_m - s.y, p.theta_rad - s.z);
+            largest = largest.max(s.x.hypot(s.y)).max(s.z.abs());
         }
-        if largest < 1e-4 {
+        if largest < CONVERGED_STEP {
             return iteration + 1;
         }
     }
     max_iterations
 }
 
+/// Upper blocks `(a, b, H_ab)` of a block-sparse symmetric matrix, `a < b` not required.
+type OffBlocks = Vec<(usize, usize, DMat3)>;
+
+/// The Gauss–Newton normal equations `H x = g` of the free nodes at the current poses: the
+/// diagonal blocks of `H`, its off-diagonal blocks, and `g = Jᵀ W r`.
+fn normal_equations(
+    poses: &[Pose2],
+    active: &[&Edge],
+    free: &std::ops::Range<usize>,
+) -> (Vec<DMat3>, OffBlocks, Vec<DVec3>) {
+    let n = free.len();
+    let index = |i: usize| free.contains(&i).then(|| i - free.start);
+    let mut diag = vec![DMat3::ZERO; n];
+    let mut off: OffBlocks = Vec::new();
+    let mut g = vec![DVec3::ZERO; n];
+    for e in active {
+        let (r, ja, jb) = residual(e, &poses[e.from], &poses[e.to]);
+        let w = weights(e, r);
+        let wr_v = w * r;
+        let (ia, ib) = (index(e.from), index(e.to));
+        for (i, j) in [(ia, &ja), (ib, &jb)] {
+            if let Some(i) = i {
+                diag[i] += jt_w_j(j, w, j);
+                g[i] += j.transpose() * wr_v;
+            }
+        }
+        if let (Some(a), Some(b)) = (ia, ib) {
+            off.push((a, b, jt_w_j(&ja, w, &jb)));
+        }
+    }
+    for d in &mut diag {
+        *d += DMat3::from_diagonal(DVec3::splat(PRIOR_WEIGHT));
+    }
+    (diag, off, g)
+}
+
+/// The weights of an edge's residual `r`: inverse variances, times the Cauchy weight for a
+/// loop edge.
+fn weights(e: &Edge, r: DVec3) -> DVec3 {
+    let wt = 1.0 / (e.sigma_m * e.sigma_m);
+    let wr = 1.0 / (e.sigma_rad * e.sigma_rad);
+    let w = DVec3::new(wt, wt, wr);
+    if !e.robust {
+        return w;
+    }
+    let chi2 = r.x * r.x * wt + r.y * r.y * wt + r.z * r.z * wr;
+    w * (1.0 / (1.0 + chi2 / (CAUCHY_SCALE * CAUCHY_SCALE)))
+}
+
 /// Solves `H x = g` for the block-sparse symmetric `H` (diagonal blocks and upper blocks
 /// `(a, b, H_ab)`) by conjugate gradients with a block-Jacobi preconditioner.
-fn solve(diag: &[M3], off: &[(usize, usize, M3)], g: &[V3], max_iterations: usize) -> Vec<V3> {
+fn solve(
+    diag: &[DMat3],
+    off: &[(usize, usize, DMat3)],
+    g: &[DVec3],
+    max_iterations: usize,
+) -> Vec<DVec3> {
     let n = diag.len();
-    let apply = |x: &[V3]| -> Vec<V3> {
-        let mut y: Vec<V3> = diag.iter().zip(x).map(|(d, v)| mul(d, v)).collect();
+    let apply = |x: &[DVec3]| -> Vec<DVec3> {
+        let mut y: Vec<DVec3> = diag.iter().zip(x).map(|(d, v)| *d * *v).collect();
         for (a, b, h) in off {
-            add(&mut y[*a], &mul(h, &x[*b]));
-            add(&mut y[*b], &mul_t(h, &x[*a]));
+            y[*a] += *h * x[*b];
+            y[*b] += h.transpose() * x[*a];
         }
         y
     };
-    let pre: Vec<M3> = diag.iter().map(inverse).collect();
-    let mut x = vec![[0.0; 3]; n];
+    let pre: Vec<DMat3> = diag.iter().map(inverse).collect();
+    let mut x = vec![DVec3::ZERO; n];
     let mut r = g.to_vec();
-    let mut z: Vec<V3> = pre.iter().zip(&r).map(|(p, v)| mul(p, v)).collect();
+    let mut z: Vec<DVec3> = pre.iter().zip(&r).map(|(p, v)| *p * *v).collect();
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
     let target = 1e-16 * dot(g, g).max(1e-300);
@@ -213,19 +213,15 @@ fn solve(diag: &[M3], off: &[(usize, usize, M3)], g: &[V3], max_iterations: usiz
         }
         let alpha = rz / php;
         for k in 0..n {
-            for c in 0..3 {
-                x[k][c] += alpha * p[k][c];
-                r[k][c] -= alpha * hp[k][c];
-            }
+            x[k] += alpha * p[k];
+            r[k] -= alpha * hp[k];
         }
-        z = pre.iter().zip(&r).map(|(pm, v)| mul(pm, v)).collect();
+        z = pre.iter().zip(&r).map(|(pm, v)| *pm * *v).collect();
         let rz_next = dot(&r, &z);
         let beta = rz_next / rz;
         rz = rz_next;
         for k in 0..n {
-            for c in 0..3 {
-                p[k][c] = z[k][c] + beta * p[k][c];
-            }
+            p[k] = z[k] + beta * p[k];
         }
     }
     x
@@ -264,11 +260,11 @@ mod tests {
             let (rb, _, _) = residual(&e, &a, &bump(&b));
             for row in 0..3 {
                 assert!(
-                    ((ra[row] - r0[row]) / h - ja[row][k]).abs() < 1e-4,
+                    ((ra[row] - r0[row]) / h - ja.col(k)[row]).abs() < 1e-4,
                     "ja[{row}][{k}]"
                 );
                 assert!(
-                    ((rb[row] - r0[row]) / h - jb[row][k]).abs() < 1e-4,
+                    ((rb[row] - r0[row]) / h - jb.col(k)[row]).abs() < 1e-4,
                     "jb[{row}][{k}]"
                 );
             }
@@ -324,20 +320,12 @@ mod tests {
     /// Conjugate gradients solve a small system exactly.
     #[test]
     fn block_solver_solves() {
-        let d = [[4.0, 1.0, 0.0], [1.0, 3.0, 0.5], [0.0, 0.5, 2.0]];
-        let o = [[0.5, 0.0, 0.1], [0.0, 0.2, 0.0], [0.3, 0.0, 0.4]];
-        let g = vec![[1.0, 2.0, 3.0], [-1.0, 0.5, 0.0]];
+        let d = DMat3::from_cols_array_2d(&[[4.0, 1.0, 0.0], [1.0, 3.0, 0.5], [0.0, 0.5, 2.0]]);
+        let o = DMat3::from_cols_array_2d(&[[0.5, 0.0, 0.1], [0.0, 0.2, 0.0], [0.3, 0.0, 0.4]]);
+        let g = vec![DVec3::new(1.0, 2.0, 3.0), DVec3::new(-1.0, 0.5, 0.0)];
         let x = solve(&[d, d], &[(0, 1, o)], &g, 100);
-        let y0: V3 = {
-            let mut v = mul(&d, &x[0]);
-            add(&mut v, &mul(&o, &x[1]));
-            v
-        };
-        let y1: V3 = {
-            let mut v = mul(&d, &x[1]);
-            add(&mut v, &mul_t(&o, &x[0]));
-            v
-        };
+        let y0 = d * x[0] + o * x[1];
+        let y1 = d * x[1] + o.transpose() * x[0];
         for k in 0..3 {
             assert!((y0[k] - g[0][k]).abs() < 1e-9 && (y1[k] - g[1][k]).abs() < 1e-9);
         }

@@ -1,7 +1,9 @@
 //! Tests of loop closure on scans ray-cast in small worlds, with drift added to the poses.
 
+use super::closer::merge_corrections;
 use super::*;
 use crate::config::Config;
+use crate::geometry::{Segment, Vec2};
 use crate::mapper::Mapper;
 use crate::testutil::scan_from;
 

@@ -1,0 +1,204 @@
+//! Loop closure on the mapper's side: scans grouped into nodes with their submaps, each
+//! completed node handed to the graph, and the graph's outcome taken in at a fixed later scan
+//! as a correction of the node poses.
+
+use crate::align::AlignParams;
+use crate::geometry::{Pose2, Segment, Vec2};
+
+use super::nodes::{NodeDone, NodeGraph, Submap};
+use super::worker::Worker;
+use super::{Correction, LoopDiagnostics, LoopParams};
+
+/// The node being filled by the mapper.
+#[derive(Debug, Clone, Default)]
+struct OpenNode {
+    /// Its pose relative to the node before (the mapper's motion between their first scans).
+    from_previous: Option<Pose2>,
+    submap: Submap,
+    /// Cells of the kept points, for thinning.
+    cells: rustc_hash::FxHashSet<(i64, i64)>,
+}
+
+/// Loop closure for the mapper: node bookkeeping on the mapper's side, the pose graph on a
+/// second thread (with `background`).
+///
+/// The mapper hands every completed node to the graph, which matches it against older nodes
+/// and optimises. The outcome for node `k` is taken in at the end of node `k +
+/// apply_after_nodes` (waiting for it if need be), so results never depend on timing.
+#[derive(Debug, Clone)]
+pub struct LoopCloser {
+    params: LoopParams,
+    /// The mapper's view of the node poses (map frame), with every correction taken in.
+    poses: Vec<Pose2>,
+    open: OpenNode,
+    worker: Worker,
+    loop_edges: usize,
+}
+
+impl LoopCloser {
+    /// An empty graph; `align` is the ICP used to match submaps (with its first gate at most
+    /// `match_gate_m`: the grid search covers larger offsets), `grid_cell_m` the cell size of
+    /// their spatial index (speed only).
+    pub fn new(params: LoopParams, align: AlignParams, grid_cell_m: f64) -> Self {
+        let initial_gate_m = align
+            .initial_gate_m
+            .min(params.match_gate_m)
+            .max(align.final_gate_m);
+        let align = AlignParams {
+            initial_gate_m,
+            ..align
+        };
+        let graph = NodeGraph::new(params.clone(), align, grid_cell_m);
+        LoopCloser {
+            worker: Worker::new(graph, params.background),
+            params,
+            poses: Vec::new(),
+            open: OpenNode::default(),
+            loop_edges: 0,
+        }
+    }
+
+    /// The node that scan `t` belongs to.
+    pub fn node_of(&self, t: u32) -> usize {
+        (t / self.params.node_scans) as usize
+    }
+
+    /// Loop edges taken in so far.
+    pub fn loop_edges(&self) -> usize {
+        self.loop_edges
+    }
+
+    /// Records scan `t` (scans come in order, from 0, without gaps) at `map_from_robot` with
+    /// its points and segments (robot frame). When the scan completes a node, the node goes
+    /// to the graph, and the graph's outcome for an earlier node is taken in: returns the
+    /// correction when nodes moved. Call [`LoopCloser::finish`] after the last scan.
+    pub fn add_scan(
+        &mut self,
+        t: u32,
+        map_from_robot: Pose2,
+        points_in_robot: &[Vec2],
+        segments_in_robot: &[Segment],
+        diagnostics: &mut LoopDiagnostics,
+    ) -> Option<Correction> {
+        let ns = self.params.node_scans;
+        let k = self.node_of(t);
+        if self.poses.len() <= k {
+            self.open = OpenNode {
+                from_previous: self.poses.last().map(|last| last.between(&map_from_robot)),
+                ..OpenNode::default()
+            };
+            self.poses.push(map_from_robot);
+        }
+        if (t % ns) % self.params.node_keep_every == 0 {
+            let node_from_robot = self.poses[k].between(&map_from_robot);
+            let spacing = self.params.node_point_spacing_m;
+            let open = &mut self.open;
+            for p in points_in_robot {
+                let q = node_from_robot.transform_point(*p);
+                let cell = (
+                    (q.x / spacing).floor() as i64,
+                    (q.y / spacing).floor() as i64,
+                );
+                if open.cells.insert(cell) {
+                    open.submap.points.push(q);
+                }
+            }
+            open.submap.segments.extend(
+                segments_in_robot
+                    .iter()
+                    .map(|s| s.transformed(&node_from_robot)),
+            );
+        }
+        if (t + 1) % ns != 0 {
+            return None;
+        }
+        let open = std::mem::take(&mut self.open);
+        self.worker.hand_over(NodeDone {
+            node: k,
+            pose: self.poses[k],
+            from_previous: open.from_previous,
+            submap: open.submap,
+        });
+        let due = k.checked_sub(self.params.apply_after_nodes)?;
+        let mut correction = None;
+        while self.worker.pending.front().is_some_and(|p| p.node <= due) {
+            correction = merge_corrections(correction, self.take_in(diagnostics));
+        }
+        correction
+    }
+
+    /// Takes in every outcome still pending (at the end of the run); see
+    /// [`LoopCloser::add_scan`].
+    pub fn finish(&mut self, diagnostics: &mut LoopDiagnostics) -> Option<Correction> {
+        let mut correction = None;
+        while !self.worker.pending.is_empty() {
+            correction = merge_corrections(correction, self.take_in(diagnostics));
+        }
+        correction
+    }
+
+    /// Waits for the oldest pending outcome and applies it to the node poses; returns the
+    /// correction when nodes moved.
+    fn take_in(&mut self, diagnostics: &mut LoopDiagnostics) -> Option<Correction> {
+        let pending = self.worker.pending.pop_front()?;
+        let result = pending.result.wait();
+        let d = &result.diagnostics;
+        diagnostics.candidates += d.candidates;
+        diagnostics.searches += d.searches;
+        diagnostics.accepted += d.accepted;
+        diagnostics.held = d.held;
+        diagnostics.match_s += d.match_s;
+        diagnostics.optimize_s += d.optimize_s;
+        self.loop_edges += d.accepted;
+        let (first, optimized) = result.optimized.as_ref()?;
+        let mut new_from_old: Vec<Pose2> = optimized
+            .iter()
+            .zip(self.poses.get(*first..=pending.node)?)
+            .map(|(new, old)| new.compose(&old.inverse()))
+            .collect();
+        let newest = *new_from_old.last()?;
+        // Nodes begun since the graph took the node in ride along with it.
+        new_from_old.resize(self.poses.len() - first, newest);
+        diagnostics.optimized_nodes = diagnostics.optimized_nodes.max(new_from_old.len());
+        for (pose, d) in self.poses[*first..].iter_mut().zip(&new_from_old) {
+            let moved = d.compose(pose);
+            diagnostics.largest_correction_m = diagnostics
+                .largest_correction_m
+                .max(moved.translation().distance(pose.translation()));
+            *pose = moved;
+        }
+        Some(Correction {
+            first_node: *first,
+            new_from_old,
+        })
+    }
+}
+
+/// Two corrections in a row as one (the second applied after the first).
+pub(super) fn merge_corrections(
+    a: Option<Correction>,
+    b: Option<Correction>,
+) -> Option<Correction> {
+    match (a, b) {
+        (None, b) => b,
+        (a, None) => a,
+        (Some(a), Some(b)) => {
+            let first = a.first_node.min(b.first_node);
+            let len = (a.first_node + a.new_from_old.len())
+                .max(b.first_node + b.new_from_old.len())
+                - first;
+            let at = |c: &Correction, i: usize| {
+                i.checked_sub(c.first_node)
+                    .and_then(|j| c.new_from_old.get(j).copied())
+                    .unwrap_or(Pose2::IDENTITY)
+            };
+            let new_from_old = (first..first + len)
+                .map(|i| at(&b, i).compose(&at(&a, i)))
+                .collect();
+            Some(Correction {
+                first_node: first,
+                new_from_old,
+            })
+        }
+    }
+}

@@ -1,0 +1,288 @@
+//! The node graph on the loop side: the node submaps, the pose graph's edges, candidate choice,
+//! the confirmation of far loop edges and the optimisation trigger.
+
+use crate::align::AlignParams;
+use crate::geometry::{Pose2, Segment, Vec2};
+
+use super::graph::{self, Edge};
+use super::{LoopDiagnostics, LoopParams};
+
+/// A node's submap, in the node's frame.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Submap {
+    pub(super) points: Vec<Vec2>,
+    pub(super) segments: Vec<Segment>,
+}
+
+/// A completed node, handed from the mapper to the graph.
+#[derive(Debug)]
+pub(super) struct NodeDone {
+    pub(super) node: usize,
+    /// The mapper's pose of the node (used for the first node only).
+    pub(super) pose: Pose2,
+    /// The mapper's motion from the node before.
+    pub(super) from_previous: Option<Pose2>,
+    pub(super) submap: Submap,
+}
+
+/// An older node to match against, with its submap (and its neighbours') in its frame.
+#[derive(Debug, Clone)]
+pub(super) struct Candidate {
+    pub(super) j: usize,
+    pub(super) predicted: Pose2,
+    pub(super) target: Vec<Segment>,
+}
+
+/// The pose graph with the node submaps.
+#[derive(Debug, Clone)]
+pub(super) struct NodeGraph {
+    pub(super) params: LoopParams,
+    pub(super) align: AlignParams,
+    pub(super) grid_cell_m: f64,
+    pub(super) submaps: Vec<Submap>,
+    pub(super) poses: Vec<Pose2>,
+    pub(super) edges: Vec<Edge>,
+    /// The last node that got a loop edge.
+    pub(super) last_closed: Option<usize>,
+    /// Loop edges that would bend the graph a lot, waiting for a second that agrees.
+    pub(super) held: Vec<Edge>,
+}
+
+/// What the graph did with one node: loop edges found, and the optimised poses of nodes
+/// `first..=node` if it optimised.
+#[derive(Debug, Clone, Default)]
+pub(super) struct JobResult {
+    pub(super) optimized: Option<(usize, Vec<Pose2>)>,
+    pub(super) diagnostics: LoopDiagnostics,
+}
+
+/// Candidates whose poses are within this many nodes of a chosen one are skipped: two
+/// neighbours of one place would test the same thing.
+const CANDIDATE_SPACING_NODES: usize = 2;
+
+impl NodeGraph {
+    /// An empty graph; `align` is the ICP used to match submaps, `grid_cell_m` the cell size
+    /// of their spatial index (speed only).
+    pub(super) fn new(params: LoopParams, align: AlignParams, grid_cell_m: f64) -> Self {
+        NodeGraph {
+            params,
+            align,
+            grid_cell_m,
+            submaps: Vec::new(),
+            poses: Vec::new(),
+            edges: Vec::new(),
+            last_closed: None,
+            held: Vec::new(),
+        }
+    }
+
+    /// Adds a completed node (after its sequential edge), matches it against older nodes near
+    /// it, and optimises when a new loop edge disagrees with the graph.
+    pub(super) fn add(&mut self, done: NodeDone) -> JobResult {
+        let k = self.push_node(done);
+        let mut out = JobResult::default();
+        let clock = std::time::Instant::now();
+        let found = self.find_loop_edges(k, &mut out.diagnostics);
+        let take = self.confirm(k, found);
+        out.diagnostics.held = self.held.len();
+        let optimize_from = self.take_edges(k, take, &mut out.diagnostics);
+        out.diagnostics.match_s = clock.elapsed().as_secs_f64();
+        // Node 0 holds the map frame (the first scan's pose): it never moves.
+        let Some(first) = optimize_from.map(|f| f.max(1)) else {
+            return out;
+        };
+        if first > k {
+            return out;
+        }
+        let clock = std::time::Instant::now();
+        graph::optimize(
+            &mut self.poses,
+            &self.edges,
+            first..k + 1,
+            self.params.max_iterations,
+        );
+        out.optimized = Some((first, self.poses[first..=k].to_vec()));
+        out.diagnostics.optimize_s = clock.elapsed().as_secs_f64();
+        out
+    }
+
+    /// Appends the node with its sequential edge (the mapper's motion from the node before);
+    /// returns its index.
+    fn push_node(&mut self, done: NodeDone) -> usize {
+        let k = self.poses.len();
+        let pose = match (self.poses.last(), done.from_previous) {
+            (Some(last), Some(z)) => {
+                self.edges.push(Edge {
+                    from: k - 1,
+                    to: k,
+                    measured: z,
+                    sigma_m: self.params.sequential_sigma_m,
+                    sigma_rad: self.params.sequential_sigma_deg.to_radians(),
+                    robust: false,
+                });
+                last.compose(&z)
+            }
+            _ => done.pose,
+        };
+        debug_assert_eq!(k, done.node);
+        self.poses.push(pose);
+        self.submaps.push(done.submap);
+        k
+    }
+
+    /// The loop edges node `k` gets from matching its candidates.
+    fn find_loop_edges(&self, k: usize, diagnostics: &mut LoopDiagnostics) -> Vec<Edge> {
+        let mut found: Vec<Edge> = Vec::new();
+        for c in &self.candidates(k) {
+            diagnostics.candidates += 1;
+            let Some(measured) = self.match_nodes(k, c, diagnostics) else {
+                continue;
+            };
+            found.push(Edge {
+                from: c.j,
+                to: k,
+                measured,
+                sigma_m: self.params.loop_sigma_m,
+                sigma_rad: self.params.loop_sigma_deg.to_radians(),
+                robust: true,
+            });
+        }
+        found
+    }
+
+    /// The edges to take in now: an edge that would bend the graph a lot waits (held) for a
+    /// second one that agrees with it (a false match rarely repeats consistently); the others
+    /// go in at once, and so do held edges that another held edge confirms.
+    fn confirm(&mut self, k: usize, found: Vec<Edge>) -> Vec<Edge> {
+        let p = &self.params;
+        let (confirm_m, confirm_rad) = (p.confirm_above_m, p.confirm_above_deg.to_radians());
+        let within_nodes = p.confirm_within_nodes;
+        self.held.retain(|e| e.to + within_nodes >= k);
+        let mut take: Vec<Edge> = Vec::new();
+        for e in found {
+            if within_nodes == 0 || !beyond(&off(&self.poses, &e), confirm_m, confirm_rad) {
+                take.push(e);
+            } else {
+                self.held.push(e);
+            }
+        }
+        let agree = |poses: &[Pose2], a: &Edge, b: &Edge| {
+            // Where `a` puts b's node (moving it with a's node) against where `b` puts it.
+            let a_moves = poses[a.from]
+                .compose(&a.measured)
+                .compose(&poses[a.to].inverse());
+            let by_a = a_moves.compose(&poses[b.to]);
+            let by_b = poses[b.from].compose(&b.measured);
+            !beyond(&by_a.between(&by_b), confirm_m, confirm_rad)
+        };
+        let confirmed: Vec<bool> = (0..self.held.len())
+            .map(|i| {
+                (0..self.held.len())
+                    .any(|j| i != j && agree(&self.poses, &self.held[i], &self.held[j]))
+            })
+            .collect();
+        let mut i = 0;
+        self.held.retain(|e| {
+            let keep = !confirmed[i];
+            if !keep {
+                take.push(*e);
+            }
+            i += 1;
+            keep
+        });
+        take
+    }
+
+    /// Adds the loop edges to the graph; returns the oldest node an edge that disagrees with
+    /// the graph by more than `optimize_min_error_m` / `_deg` reaches back to.
+    fn take_edges(
+        &mut self,
+        k: usize,
+        take: Vec<Edge>,
+        diagnostics: &mut LoopDiagnostics,
+    ) -> Option<usize> {
+        let p = &self.params;
+        let (optimize_m, optimize_rad) = (
+            p.optimize_min_error_m,
+            p.optimize_min_error_deg.to_radians(),
+        );
+        let mut optimize_from: Option<usize> = None;
+        for e in take {
+            if beyond(&off(&self.poses, &e), optimize_m, optimize_rad) {
+                optimize_from = Some(optimize_from.map_or(e.from, |o: usize| o.min(e.from)));
+            }
+            diagnostics.accepted += 1;
+            self.last_closed = Some(k);
+            self.edges.push(e);
+        }
+        optimize_from
+    }
+
+    /// Older nodes to match node `k` against: at least `min_node_gap` nodes back, within
+    /// `search_radius_m`, nearest first, apart from each other.
+    pub(super) fn candidates(&self, k: usize) -> Vec<Candidate> {
+        let p = &self.params;
+        if !p.enabled
+            || k < p.min_node_gap
+            || self.submaps[k].points.len() < MIN_NODE_POINTS
+            || self
+                .last_closed
+                .is_some_and(|c| k <= c + p.skip_after_closure)
+        {
+            return Vec::new();
+        }
+        let here = self.poses[k].translation();
+        let mut near: Vec<(f64, usize)> = (0..=k - p.min_node_gap)
+            .filter_map(|j| {
+                let d = self.poses[j].translation().distance(here);
+                (d <= p.search_radius_m).then_some((d, j))
+            })
+            .collect();
+        near.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut chosen: Vec<usize> = Vec::new();
+        for (_, j) in near {
+            if chosen.len() >= p.max_candidates {
+                break;
+            }
+            if chosen
+                .iter()
+                .all(|c| c.abs_diff(j) > CANDIDATE_SPACING_NODES)
+            {
+                chosen.push(j);
+            }
+        }
+        chosen
+            .into_iter()
+            .map(|j| {
+                let mut target: Vec<Segment> = Vec::new();
+                for i in j.saturating_sub(1)..=(j + 1).min(k - 1) {
+                    let j_from_i = self.poses[j].between(&self.poses[i]);
+                    target.extend(
+                        self.submaps[i]
+                            .segments
+                            .iter()
+                            .map(|s| s.transformed(&j_from_i)),
+                    );
+                }
+                Candidate {
+                    j,
+                    predicted: self.poses[j].between(&self.poses[k]),
+                    target,
+                }
+            })
+            .collect()
+    }
+}
+
+/// A node with fewer points (after thinning) is not matched.
+const MIN_NODE_POINTS: usize = 20;
+
+/// How far the graph's poses are from edge `e`'s measurement (`measured⁻¹ ∘ (from⁻¹ ∘ to)`).
+fn off(poses: &[Pose2], e: &Edge) -> Pose2 {
+    poses[e.from].between(&poses[e.to]).between(&e.measured)
+}
+
+/// True when `d` moves more than `m` metres or turns more than `rad` radians.
+fn beyond(d: &Pose2, m: f64, rad: f64) -> bool {
+    d.translation().length() > m || d.theta_rad.abs() > rad
+}
