@@ -1,4 +1,5 @@
-//! The effective configuration: a preset, then TOML files in order, then flags.
+//! The effective configuration: a preset, the flags that choose a mode, then TOML files in
+//! order.
 
 use std::path::{Path, PathBuf};
 
@@ -6,17 +7,11 @@ use anyhow::{Context, Result, anyhow};
 use polymap::config::{Config, PRESETS};
 use polymap::mapper::MotionPrior;
 
-/// Builds the configuration from a preset name, TOML files laid over it in order, and the
-/// odometry flag.
+/// Builds the configuration from a preset name, the odometry flag laid over it, then the TOML
+/// files in order (a key a file sets always wins), and validates the result.
 pub fn effective_config(preset: &str, files: &[PathBuf], odometry: bool) -> Result<Config> {
     let mut config = Config::preset(preset)
         .ok_or_else(|| anyhow!("unknown preset {preset:?}; known: {}", PRESETS.join(", ")))?;
-    for path in files {
-        config = layered(config, path)?;
-    }
-    config
-        .validate()
-        .map_err(|e| anyhow!("invalid configuration: {e}"))?;
     if odometry {
         config.mapper.motion_prior = MotionPrior::Odometry;
         // Measured on intel, aces and fr079: from an odometry guess, running ICP from every
@@ -24,6 +19,12 @@ pub fn effective_config(preset: &str, files: &[PathBuf], odometry: bool) -> Resu
         // 0.453 / 0.730 m for the best-scoring start alone, which is best without odometry).
         config.mapper.icp_from_best_start_only = false;
     }
+    for path in files {
+        config = layered(config, path)?;
+    }
+    config
+        .validate()
+        .map_err(|e| anyhow!("invalid configuration: {e}"))?;
     Ok(config)
 }
 
@@ -54,4 +55,37 @@ fn merge(base: &mut toml::Table, over: toml::Table) {
 /// The configuration as TOML text.
 pub fn to_toml(config: &Config) -> Result<String> {
     toml::to_string_pretty(config).context("cannot write the configuration as TOML")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--odometry` once set `icp_from_best_start_only` after the files were read, silently
+    /// beating a user's file; it is now a layer under the files.
+    #[test]
+    fn a_config_file_beats_what_odometry_chooses() {
+        let from_flag = effective_config("default", &[], true).unwrap();
+        assert_eq!(from_flag.mapper.motion_prior, MotionPrior::Odometry);
+        assert!(!from_flag.mapper.icp_from_best_start_only);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mine.toml");
+        std::fs::write(&path, "[mapper]\nicp_from_best_start_only = true\n").unwrap();
+        let mine = effective_config("default", &[path], true).unwrap();
+        assert_eq!(mine.mapper.motion_prior, MotionPrior::Odometry);
+        assert!(mine.mapper.icp_from_best_start_only);
+    }
+
+    #[test]
+    fn an_out_of_range_key_is_named_with_its_rule() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("bad.toml");
+        std::fs::write(&path, "[align]\nmax_iterations = 0\n").unwrap();
+        let e = effective_config("default", &[path], false).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "invalid configuration: align.max_iterations = 0 is out of range: must be within \
+             [1, 10000]"
+        );
+    }
 }

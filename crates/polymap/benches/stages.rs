@@ -17,7 +17,8 @@
 //!   `GlobalMap` (the `SegmentLookup` ICP uses) and through a prebuilt `align::SegmentIndex`.
 //! - `directions`: `directions::main_directions` over the segments born in the last `tm` scans.
 //! - `merge`: `merge::insert_vertices`, `merge::restrictive_pairing` and `merge::simplify`, on
-//!   the map near the scan (as the mapper takes it) and the aligned scan segments.
+//!   the map near the scan (as the mapper takes it) and the aligned scan segments; and the
+//!   whole stage, `merge::merge_scan`, on a clone of the map (cloning is not timed).
 //! - `mapper_push`: a whole `Mapper::push`, on a clone of the mapper (cloning is not timed).
 //!
 //! Run: `cargo bench -p polymap --bench stages` (all), `... -- icp` (one group),
@@ -37,7 +38,7 @@ use polymap::align::{SegmentIndex, SegmentLookup, align_points, thin_points};
 use polymap::config::Config;
 use polymap::directions::main_directions;
 use polymap::extract::extract_segments;
-use polymap::merge::{insert_vertices, restrictive_pairing, simplify};
+use polymap::merge::{insert_vertices, merge_scan, restrictive_pairing, simplify};
 use support::{STEPS, Step, sources, steps, warm_scans};
 
 /// One source's stage inputs.
@@ -192,6 +193,24 @@ fn bench_merge(c: &mut Criterion, sources: &[Source]) {
                     black_box(simplify(&st.a_t, &st.directions_rad, &p));
                 }
             })
+        });
+        g.bench_function(format!("merge_scan/{}", s.name), |b| {
+            b.iter_batched(
+                || {
+                    s.steps
+                        .iter()
+                        .map(|st| st.mapper.map().clone())
+                        .collect::<Vec<_>>()
+                },
+                |mut maps| {
+                    for (map, st) in maps.iter_mut().zip(&s.steps) {
+                        let t = st.mapper.scans();
+                        black_box(merge_scan(&p, map, &st.scan_in_map, &st.directions_rad, t));
+                    }
+                    maps
+                },
+                BatchSize::SmallInput,
+            )
         });
     }
     g.finish();

@@ -3,11 +3,13 @@
 use serde::{Deserialize, Serialize};
 
 use crate::align::{AlignMethod, AlignParams, TrackParams};
+use crate::check::InvalidParam;
 use crate::directions::DirectionParams;
 use crate::extract::ExtractParams;
 use crate::loops::LoopParams;
-use crate::mapper::{MapperParams, MotionPrior};
+use crate::map::MapParams;
 use crate::merge::MergeParams;
+use crate::motion::{MapperParams, MotionPrior};
 use crate::polyline::PolylineParams;
 
 /// Every parameter of the pipeline, one section per stage.
@@ -27,9 +29,11 @@ pub struct Config {
     pub tracking: TrackParams,
     /// Main directions.
     pub directions: DirectionParams,
-    /// Vertex insertion, pairing, simplification.
+    /// Vertex insertion, pairing, simplification, and which map segments take part.
     pub merge: MergeParams,
-    /// The loop around the stages.
+    /// The map store and its index.
+    pub map: MapParams,
+    /// The loop around the stages: the motion prior and where ICP starts.
     pub mapper: MapperParams,
     /// Loop closure (an addition).
     pub loops: LoopParams,
@@ -66,11 +70,11 @@ impl Config {
                 max_children: 3,
                 max_gap_m: f64::INFINITY,
                 rejoin_unpaired_pieces: false,
+                local_margin_m: f64::INFINITY,
                 ..d.merge
             },
             mapper: MapperParams {
                 motion_prior: MotionPrior::Previous,
-                merge_margin_m: f64::INFINITY,
                 also_start_at_anchor: false,
                 weak_direction_velocity: 0.0,
                 recover_below_inlier_share: 0.0,
@@ -88,86 +92,31 @@ impl Config {
         }
     }
 
-    /// Checks that every value is in a range the pipeline can work with; the message names
-    /// the first key that is not.
+    /// Checks that every value is in a range the pipeline can work with: each section checks
+    /// itself; the error names the first key out of range as `section.key`, with its rule.
     ///
     /// ```
     /// let mut c = polymap::config::Config::default();
     /// assert!(c.validate().is_ok());
     /// c.directions.bins = 0;
-    /// assert!(c.validate().unwrap_err().contains("directions.bins"));
+    /// assert_eq!(c.validate().unwrap_err().key, "directions.bins");
     /// ```
-    pub fn validate(&self) -> Result<(), String> {
-        let (e, a, d, m, p) = (
-            &self.extract,
-            &self.align,
-            &self.directions,
-            &self.merge,
-            &self.mapper,
-        );
-        let checks: [(&str, bool); 18] = [
-            (
-                "extract.tolerance_m",
-                e.tolerance_m.is_finite() && e.tolerance_m > 0.0,
-            ),
-            (
-                "extract.max_range_m",
-                e.max_range_m.is_finite() && e.max_range_m > 0.0 && e.max_range_m <= 1e4,
-            ),
-            ("extract.min_points", e.min_points >= 2),
-            (
-                "align.initial_gate_m",
-                a.initial_gate_m.is_finite() && a.initial_gate_m > 0.0 && a.initial_gate_m <= 100.0,
-            ),
-            (
-                "align.final_gate_m",
-                a.final_gate_m > 0.0 && a.final_gate_m <= a.initial_gate_m,
-            ),
-            (
-                "align.gate_decay",
-                a.gate_decay > 0.0 && a.gate_decay <= 1.0,
-            ),
-            ("align.max_iterations", a.max_iterations <= 10_000),
-            (
-                "align.rotation_search_deg",
-                (0.0..=180.0).contains(&a.rotation_search_deg),
-            ),
-            (
-                "align.rotation_search_step_deg",
-                a.rotation_search_step_deg >= 0.1 && a.rotation_search_step_deg <= 90.0,
-            ),
-            (
-                "align.rotation_search_sigma_m",
-                a.rotation_search_sigma_m.is_finite() && a.rotation_search_sigma_m > 0.0,
-            ),
-            ("directions.bins", (1..=3600).contains(&d.bins)),
-            (
-                "directions.window_bins",
-                d.window_bins >= 1 && d.window_bins <= d.bins,
-            ),
-            ("merge.k", m.k.is_finite() && m.k >= 0.0),
-            ("merge.max_gap_m", m.max_gap_m >= 0.0),
-            (
-                "merge.pairing_threshold",
-                m.pairing_threshold.is_finite() && m.simplify_threshold.is_finite(),
-            ),
-            (
-                "mapper.grid_cell_m",
-                p.grid_cell_m.is_finite() && (0.05..=100.0).contains(&p.grid_cell_m),
-            ),
-            ("mapper.merge_margin_m", p.merge_margin_m >= 0.0),
-            (
-                "mapper.recover_below_inlier_share",
-                (0.0..=1.0).contains(&p.recover_below_inlier_share),
-            ),
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        let sections: [(&str, Result<(), InvalidParam>); 9] = [
+            ("extract", self.extract.validate()),
+            ("polyline", self.polyline.validate()),
+            ("align", self.align.validate()),
+            ("tracking", self.tracking.validate()),
+            ("directions", self.directions.validate()),
+            ("merge", self.merge.validate()),
+            ("map", self.map.validate()),
+            ("mapper", self.mapper.validate()),
+            ("loops", self.loops.validate()),
         ];
-        match checks.iter().find(|(_, ok)| !ok) {
-            Some((key, _)) => Err(format!("{key} is out of range")),
-            None => match self.loops.invalid_key().or(self.tracking.invalid_key()) {
-                Some(key) => Err(format!("{key} is out of range")),
-                None => Ok(()),
-            },
+        for (section, checked) in sections {
+            checked.map_err(|e| e.in_section(section))?;
         }
+        Ok(())
     }
 
     /// A preset by name (see [`PRESETS`]).
@@ -177,5 +126,60 @@ impl Config {
             "paper" => Some(Config::paper()),
             _ => None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_presets_are_valid() {
+        for name in PRESETS {
+            let c = Config::preset(name).unwrap();
+            assert_eq!(c.validate(), Ok(()), "{name}");
+        }
+    }
+
+    /// Every numeric key of every section has a range: some value of it is refused, and the
+    /// error names that key (a key nobody checks would pass).
+    #[test]
+    fn every_key_is_checked() {
+        let tree = serde_json::to_value(Config::default()).unwrap();
+        let mut keys = 0;
+        for (section, table) in tree.as_object().unwrap() {
+            for (key, value) in table.as_object().unwrap() {
+                let tries: Vec<serde_json::Value> = if value.is_f64() {
+                    vec![(-1.0).into()]
+                } else if value.is_u64() {
+                    vec![0.into(), 1_000_000_000_000u64.into(), u32::MAX.into()]
+                } else {
+                    continue;
+                };
+                keys += 1;
+                let refused = tries.into_iter().any(|v| {
+                    let mut t = tree.clone();
+                    t[section][key] = v;
+                    let c: Config = match serde_json::from_value(t) {
+                        Ok(c) => c,
+                        Err(_) => return false,
+                    };
+                    c.validate()
+                        .is_err_and(|e| e.key == format!("{section}.{key}"))
+                });
+                assert!(refused, "{section}.{key} accepts every value tried");
+            }
+        }
+        assert!(keys >= 80, "only {keys} numeric keys found");
+    }
+
+    /// Issue 14: zero ICP iterations made mapping take minutes.
+    #[test]
+    fn zero_icp_iterations_are_refused() {
+        let mut c = Config::default();
+        c.align.max_iterations = 0;
+        let e = c.validate().unwrap_err();
+        assert_eq!(e.key, "align.max_iterations");
+        assert!(e.to_string().contains("must be within [1, 10000]"), "{e}");
     }
 }

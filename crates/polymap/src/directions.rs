@@ -12,7 +12,9 @@ use std::f64::consts::PI;
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Segment, angle_between_directions_rad, undirected_angle_rad};
+use crate::map::GlobalMap;
 
 /// Parameters of the direction histogram and its peaks.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -48,6 +50,26 @@ impl Default for DirectionParams {
     }
 }
 
+impl DirectionParams {
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        Checks::new()
+            .within("bins", self.bins, 1, 3600)
+            .within("window_bins", self.window_bins, 1, self.bins.max(1))
+            .within("time_memory_scans", self.time_memory_scans, 1, u32::MAX)
+            .share("min_peak_fraction", self.min_peak_fraction)
+            .within("min_peak_length_m", self.min_peak_length_m, 0.0, 1e6)
+            .within("min_separation_deg", self.min_separation_deg, 0.0, 90.0)
+            .within(
+                "refine_half_width_deg",
+                self.refine_half_width_deg,
+                0.0,
+                90.0,
+            )
+            .done()
+    }
+}
+
 /// A histogram of undirected directions and the main directions found in it.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct MainDirections {
@@ -56,6 +78,17 @@ pub struct MainDirections {
     /// The smoothed histogram: metres of segment length per bin (bin `i` covers
     /// `[i, i+1) · 180°/bins`).
     pub histogram_m: Vec<f64>,
+}
+
+/// The main directions for scan `t`: those of `G_{t-1}(tm)`, the map's segments born in the
+/// last `params.time_memory_scans` scans (the paper's `tm`).
+pub fn recent_main_directions(
+    map: &mut GlobalMap,
+    t: u32,
+    params: &DirectionParams,
+) -> MainDirections {
+    let recent = map.born_since(t.saturating_sub(params.time_memory_scans));
+    main_directions(recent.iter(), params)
 }
 
 /// Computes the main directions of a set of segments (already restricted to `G_{t-1}(tm)`).

@@ -24,6 +24,7 @@
 #![forbid(unsafe_code)]
 
 pub mod align;
+pub mod check;
 pub mod config;
 pub mod cost;
 pub mod directions;
@@ -34,6 +35,7 @@ pub mod loops;
 pub mod map;
 pub mod mapper;
 pub mod merge;
+pub mod motion;
 pub mod polyline;
 pub mod scan;
 

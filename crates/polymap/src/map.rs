@@ -4,8 +4,33 @@
 use serde::{Deserialize, Serialize};
 
 use crate::align::SegmentLookup;
+use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Segment, SegmentProjection, Vec2};
 use crate::grid::{NearestCertificate, SegmentGrid};
+
+/// Parameters of the map store (section `[map]`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MapParams {
+    /// Cell size of the map's grid index (and of the loop closer's submap indexes), metres;
+    /// speed only, results do not depend on it.
+    pub grid_cell_m: f64,
+}
+
+impl Default for MapParams {
+    fn default() -> Self {
+        MapParams { grid_cell_m: 0.5 }
+    }
+}
+
+impl MapParams {
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        Checks::new()
+            .within("grid_cell_m", self.grid_cell_m, 0.05, 100.0)
+            .done()
+    }
+}
 
 /// One segment of the global map, in the map frame, with its provenance.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]

@@ -11,6 +11,7 @@ use rstar::RTree;
 use rstar::primitives::GeomWithData;
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Checks, InvalidParam};
 use crate::geometry::Segment;
 
 /// Parameters of polyline grouping.
@@ -24,6 +25,15 @@ pub struct PolylineParams {
 impl Default for PolylineParams {
     fn default() -> Self {
         PolylineParams { max_gap_m: 0.5 }
+    }
+}
+
+impl PolylineParams {
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        Checks::new()
+            .within("max_gap_m", self.max_gap_m, 0.0, 100.0)
+            .done()
     }
 }
 

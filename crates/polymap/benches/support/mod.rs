@@ -175,7 +175,7 @@ fn step(
             .iter()
             .map(|e| e.segment.transformed(&pose))
             .collect();
-    let c1 = local_map(&mapper, &scan_in_map, config.mapper.merge_margin_m);
+    let c1 = local_map(&mapper, &scan_in_map, config.merge.local_margin_m);
     let pieces = insert_vertices(&c1, &scan_in_map, &config.merge);
     let pairing = restrictive_pairing(
         &segments(&pieces.0),

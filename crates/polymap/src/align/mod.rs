@@ -28,6 +28,7 @@ mod track;
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::grid::NearestCertificate;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
@@ -114,6 +115,59 @@ impl Default for AlignParams {
             rotation_search_points: 40,
             rotation_search_sigma_m: 0.3,
         }
+    }
+}
+
+impl AlignParams {
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        Checks::new()
+            .within("max_iterations", self.max_iterations, 1, 10_000)
+            .above("initial_gate_m", self.initial_gate_m, 0.0, 100.0)
+            .above("final_gate_m", self.final_gate_m, 0.0, self.initial_gate_m)
+            .above("gate_decay", self.gate_decay, 0.0, 1.0)
+            .above("robust_scale_m", self.robust_scale_m, 0.0, 10.0)
+            .within("point_spacing_m", self.point_spacing_m, 0.0, 10.0)
+            .within("endpoint_slack_m", self.endpoint_slack_m, 0.0, 10.0)
+            .within("min_information", self.min_information, 0.0, 1e6)
+            .within(
+                "converged_translation_m",
+                self.converged_translation_m,
+                0.0,
+                1.0,
+            )
+            .within(
+                "converged_rotation_deg",
+                self.converged_rotation_deg,
+                0.0,
+                10.0,
+            )
+            .within(
+                "min_correspondences",
+                self.min_correspondences,
+                1,
+                1_000_000,
+            )
+            .within("rotation_search_deg", self.rotation_search_deg, 0.0, 180.0)
+            .within(
+                "rotation_search_step_deg",
+                self.rotation_search_step_deg,
+                0.1,
+                90.0,
+            )
+            .within(
+                "rotation_search_points",
+                self.rotation_search_points,
+                1,
+                100_000,
+            )
+            .above(
+                "rotation_search_sigma_m",
+                self.rotation_search_sigma_m,
+                0.0,
+                10.0,
+            )
+            .done()
     }
 }
 

@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 use super::correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 use super::raster::ScoreRaster;
 use super::{AlignResult, score_sample_n};
+use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
 
@@ -137,98 +138,39 @@ impl Default for TrackParams {
 }
 
 impl TrackParams {
-    /// The first key (as `tracking.KEY`) whose value is out of its range, if any.
-    pub fn invalid_key(&self) -> Option<&'static str> {
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        let share = |v: f64| (0.0..=1.0).contains(&v);
-        let checks = [
-            (
-                "tracking.search_above_step_m",
-                self.search_above_step_m >= 0.0,
-            ),
-            (
-                "tracking.search_above_turn_deg",
-                self.search_above_turn_deg >= 0.0,
-            ),
-            (
-                "tracking.search_below_inlier_share",
-                share(self.search_below_inlier_share),
-            ),
-            (
-                "tracking.min_window_m",
-                (0.0..=10.0).contains(&self.min_window_m),
-            ),
-            (
-                "tracking.max_window_m",
-                (self.min_window_m..=10.0).contains(&self.max_window_m),
-            ),
-            (
-                "tracking.min_window_deg",
-                (0.0..=180.0).contains(&self.min_window_deg),
-            ),
-            (
-                "tracking.max_window_deg",
-                (self.min_window_deg..=180.0).contains(&self.max_window_deg),
-            ),
-            (
-                "tracking.window_per_step",
-                (0.0..=100.0).contains(&self.window_per_step),
-            ),
-            (
-                "tracking.window_per_turn",
-                (0.0..=100.0).contains(&self.window_per_turn),
-            ),
-            (
-                "tracking.window_deg_per_m",
-                (0.0..=1000.0).contains(&self.window_deg_per_m),
-            ),
-            (
-                "tracking.lost_window_growth_m",
-                (0.0..=10.0).contains(&self.lost_window_growth_m),
-            ),
-            (
-                "tracking.lost_window_max_m",
-                (0.0..=50.0).contains(&self.lost_window_max_m),
-            ),
-            (
-                "tracking.search_cell_m",
-                positive(self.search_cell_m) && (0.01..=1.0).contains(&self.search_cell_m),
-            ),
-            (
-                "tracking.search_sigma_m",
-                (0.01..=5.0).contains(&self.search_sigma_m),
-            ),
-            (
-                "tracking.search_points",
-                (1..=10_000).contains(&self.search_points),
-            ),
-            (
-                "tracking.search_max_range_m",
-                (1.0..=1e3).contains(&self.search_max_range_m),
-            ),
-            (
-                "tracking.lost_below_inlier_share",
-                share(self.lost_below_inlier_share),
-            ),
-            ("tracking.loose_point_scans", self.loose_point_scans <= 1000),
-            (
-                "tracking.rival_apart_m",
-                (0.0..=100.0).contains(&self.rival_apart_m),
-            ),
-            (
-                "tracking.rival_apart_deg",
-                (0.0..=180.0).contains(&self.rival_apart_deg),
-            ),
-            (
-                "tracking.ambiguous_above",
-                (0.0..=1.0).contains(&self.ambiguous_above),
-            ),
-            (
-                "tracking.loose_point_spacing_m",
-                (0.01..=10.0).contains(&self.loose_point_spacing_m),
-            ),
-        ];
-        checks.iter().find(|(_, ok)| !ok).map(|(key, _)| *key)
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        Checks::new()
+            .within("search_above_step_m", self.search_above_step_m, 0.0, 1e3)
+            .within("search_above_turn_deg", self.search_above_turn_deg, 0.0, 360.0)
+            .share("search_below_inlier_share", self.search_below_inlier_share)
+            .within("min_window_m", self.min_window_m, 0.0, 10.0)
+            .within("max_window_m", self.max_window_m, self.min_window_m, 10.0)
+            .within("min_window_deg", self.min_window_deg, 0.0, 180.0)
+            .within("max_window_deg", self.max_window_deg, self.min_window_deg, 180.0)
+            .within("window_per_step", self.window_per_step, 0.0, 100.0)
+            .within("window_per_turn", self.window_per_turn, 0.0, 100.0)
+            .within("window_deg_per_m", self.window_deg_per_m, 0.0, 1000.0)
+            .within("lost_window_growth_m", self.lost_window_growth_m, 0.0, 10.0)
+            .within("lost_window_max_m", self.lost_window_max_m, 0.0, 50.0)
+            .within("relocalize_every_lost", self.relocalize_every_lost, 0, 1_000_000)
+            .within("search_cell_m", self.search_cell_m, 0.01, 1.0)
+            .within("search_sigma_m", self.search_sigma_m, 0.01, 5.0)
+            .within("search_points", self.search_points, 1, 10_000)
+            .within("search_max_range_m", self.search_max_range_m, 1.0, 1e3)
+            .share("lost_below_inlier_share", self.lost_below_inlier_share)
+            .share("weak_below_inlier_share", self.weak_below_inlier_share)
+            .share("lost_below_inlier_ratio", self.lost_below_inlier_ratio)
+            .share("weak_below_inlier_ratio", self.weak_below_inlier_ratio)
+            .within("search_win_margin", self.search_win_margin, 0.0, 10.0)
+            .within("odometry_check_m", self.odometry_check_m, 0.0, 1e3)
+            .within("odometry_check_deg", self.odometry_check_deg, 0.0, 180.0)
+            .within("rival_apart_m", self.rival_apart_m, 0.0, 100.0)
+            .within("rival_apart_deg", self.rival_apart_deg, 0.0, 180.0)
+            .share("ambiguous_above", self.ambiguous_above)
+            .within("loose_point_scans", self.loose_point_scans, 0, 1000)
+            .within("loose_point_spacing_m", self.loose_point_spacing_m, 0.01, 10.0)
+            .done()
     }
 }
 

@@ -12,6 +12,7 @@ mod fit;
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Segment, Vec2};
 pub use dce::simplify_run;
 pub use fit::{LineFit, fit_line};
@@ -46,6 +47,20 @@ impl Default for ExtractParams {
             min_length_m: 0.15,
             max_range_m: 100.0,
         }
+    }
+}
+
+impl ExtractParams {
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        Checks::new()
+            .above("jump_min_m", self.jump_min_m, 0.0, 100.0)
+            .within("jump_beam_factor", self.jump_beam_factor, 0.0, 1e3)
+            .above("tolerance_m", self.tolerance_m, 0.0, 10.0)
+            .within("min_points", self.min_points, 2, 100_000)
+            .within("min_length_m", self.min_length_m, 0.0, 100.0)
+            .above("max_range_m", self.max_range_m, 0.0, 1e4)
+            .done()
     }
 }
 

@@ -2,6 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Checks, InvalidParam};
+
 /// Parameters of loop closure.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -107,87 +109,78 @@ impl Default for LoopParams {
 }
 
 impl LoopParams {
-    /// The first invalid key, if any.
-    pub fn invalid_key(&self) -> Option<&'static str> {
-        let positive = |v: f64| v.is_finite() && v > 0.0;
-        let checks = [
-            ("loops.node_scans", (1..=100_000).contains(&self.node_scans)),
-            (
-                "loops.node_keep_every",
-                self.node_keep_every >= 1 && self.node_keep_every <= self.node_scans,
-            ),
-            (
-                "loops.node_point_spacing_m",
-                positive(self.node_point_spacing_m),
-            ),
-            ("loops.min_node_gap", self.min_node_gap >= 2),
-            ("loops.apply_after_nodes", self.apply_after_nodes <= 1000),
-            (
-                "loops.skip_after_closure",
-                self.skip_after_closure <= 1_000_000,
-            ),
-            (
-                "loops.search_radius_m",
-                self.search_radius_m.is_finite() && self.search_radius_m >= 0.0,
-            ),
-            ("loops.max_candidates", self.max_candidates <= 64),
-            (
-                "loops.search_translation_m",
-                (0.0..=20.0).contains(&self.search_translation_m),
-            ),
-            ("loops.match_gate_m", positive(self.match_gate_m)),
-            (
-                "loops.search_step_m",
-                self.search_step_m >= 0.01 && self.search_step_m.is_finite(),
-            ),
-            (
-                "loops.search_rotation_deg",
-                (0.0..=180.0).contains(&self.search_rotation_deg),
-            ),
-            (
-                "loops.search_rotation_step_deg",
-                (0.1..=90.0).contains(&self.search_rotation_step_deg),
-            ),
-            (
-                "loops.min_matched_share",
-                (0.0..=1.0).contains(&self.min_matched_share),
-            ),
-            (
-                "loops.min_inlier_share",
-                (0.0..=1.0).contains(&self.min_inlier_share),
-            ),
-            (
-                "loops.max_ambiguity",
-                (0.0..=1.0).contains(&self.max_ambiguity),
-            ),
-            (
-                "loops.sequential_sigma_m",
-                positive(self.sequential_sigma_m),
-            ),
-            (
-                "loops.sequential_sigma_deg",
-                positive(self.sequential_sigma_deg),
-            ),
-            ("loops.loop_sigma_m", positive(self.loop_sigma_m)),
-            ("loops.loop_sigma_deg", positive(self.loop_sigma_deg)),
-            (
-                "loops.optimize_min_error_m",
-                self.optimize_min_error_m >= 0.0,
-            ),
-            (
-                "loops.optimize_min_error_deg",
-                self.optimize_min_error_deg >= 0.0,
-            ),
-            ("loops.max_iterations", self.max_iterations <= 1000),
-        ];
-        if let Some(k) = checks.iter().find(|(_, ok)| !ok).map(|(k, _)| *k) {
-            return Some(k);
-        }
-        // The grid search holds every start's score: bounded.
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        let finite = f64::MAX;
+        Checks::new()
+            .within("apply_after_nodes", self.apply_after_nodes, 0, 1000)
+            .within("node_scans", self.node_scans, 1, 100_000)
+            .within(
+                "node_keep_every",
+                self.node_keep_every,
+                1,
+                self.node_scans.max(1),
+            )
+            .above("node_point_spacing_m", self.node_point_spacing_m, 0.0, 10.0)
+            .within("min_node_gap", self.min_node_gap, 2, 1_000_000)
+            .within("skip_after_closure", self.skip_after_closure, 0, 1_000_000)
+            .within("search_radius_m", self.search_radius_m, 0.0, 1e4)
+            .within("max_candidates", self.max_candidates, 0, 64)
+            .above("match_gate_m", self.match_gate_m, 0.0, 100.0)
+            .within("search_translation_m", self.search_translation_m, 0.0, 20.0)
+            .within("search_step_m", self.search_step_m, 0.01, 20.0)
+            .within("search_rotation_deg", self.search_rotation_deg, 0.0, 180.0)
+            .within(
+                "search_rotation_step_deg",
+                self.search_rotation_step_deg,
+                0.1,
+                90.0,
+            )
+            .share("min_matched_share", self.min_matched_share)
+            .share("min_inlier_share", self.min_inlier_share)
+            .share("max_ambiguity", self.max_ambiguity)
+            .above("sequential_sigma_m", self.sequential_sigma_m, 0.0, finite)
+            .above(
+                "sequential_sigma_deg",
+                self.sequential_sigma_deg,
+                0.0,
+                finite,
+            )
+            .above("loop_sigma_m", self.loop_sigma_m, 0.0, finite)
+            .above("loop_sigma_deg", self.loop_sigma_deg, 0.0, finite)
+            .within("confirm_above_m", self.confirm_above_m, 0.0, 1e4)
+            .within("confirm_above_deg", self.confirm_above_deg, 0.0, 180.0)
+            .within(
+                "confirm_within_nodes",
+                self.confirm_within_nodes,
+                0,
+                1_000_000,
+            )
+            .within("optimize_min_error_m", self.optimize_min_error_m, 0.0, 1e4)
+            .within(
+                "optimize_min_error_deg",
+                self.optimize_min_error_deg,
+                0.0,
+                180.0,
+            )
+            .within("max_iterations", self.max_iterations, 1, 1000)
+            .rule(
+                "search_step_m",
+                self.search_starts() <= MAX_SEARCH_STARTS,
+                self.search_step_m,
+                format_args!(
+                    "the grid search would score {:.0} starts, more than {MAX_SEARCH_STARTS}",
+                    self.search_starts()
+                ),
+            )
+            .done()
+    }
+
+    /// Starts of the grid search: its translation and rotation ranges over their steps.
+    fn search_starts(&self) -> f64 {
         let steps_t = (self.search_translation_m / self.search_step_m).floor() + 0.5;
         let steps_r = (self.search_rotation_deg / self.search_rotation_step_deg).floor() + 0.5;
-        let starts = (2.0 * steps_t).powi(2) * 2.0 * steps_r;
-        (starts > MAX_SEARCH_STARTS).then_some("loops.search_step_m")
+        (2.0 * steps_t).powi(2) * 2.0 * steps_r
     }
 }
 

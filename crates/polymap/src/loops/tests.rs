@@ -304,7 +304,7 @@ fn corrections_in_a_row_compose() {
 #[test]
 fn every_key_is_checked() {
     let ok = LoopParams::default();
-    assert_eq!(ok.invalid_key(), None);
+    assert_eq!(ok.validate(), Ok(()));
     let bad = [
         LoopParams {
             node_scans: 0,
@@ -328,6 +328,6 @@ fn every_key_is_checked() {
         },
     ];
     for b in bad {
-        assert!(b.invalid_key().is_some(), "{b:?}");
+        assert!(b.validate().is_err(), "{b:?}");
     }
 }

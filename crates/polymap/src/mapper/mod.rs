@@ -5,8 +5,6 @@
 //! vertex insertion, restrictive pairing, simplification against the map near the scan → `G_t`.
 //! The first map `G_1` is the first scan.
 
-mod merge_step;
-
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
@@ -18,73 +16,16 @@ use crate::align::{
     window_search,
 };
 use crate::config::Config;
-use crate::directions::main_directions;
+use crate::directions::recent_main_directions;
 use crate::extract::extract_segments;
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics};
 use crate::map::{GlobalMap, MapSegment};
+pub use crate::merge::MergeDiagnostics;
+use crate::merge::merge_scan;
+pub use crate::motion::{MapperParams, MotionPrior};
 use crate::polyline::group_polylines;
 use crate::scan::RangeScan;
-pub use merge_step::MergeDiagnostics;
-
-/// Where ICP starts for a new scan.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MotionPrior {
-    /// The previous scan's pose (the paper).
-    Previous,
-    /// The previous pose moved by the last scan-to-scan motion.
-    ConstantVelocity,
-    /// The previous pose moved by the odometry increment between the scans (falls back to the
-    /// previous pose when a scan has no odometry).
-    Odometry,
-}
-
-/// Parameters of the mapping loop.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct MapperParams {
-    /// The first guess for ICP.
-    pub motion_prior: MotionPrior,
-    /// Map segments within this distance (segment to segment) of a scan segment take part in
-    /// merging, metres (infinity: the whole map, as in the paper).
-    pub merge_margin_m: f64,
-    /// When the motion prior's guess differs from the anchor (the previous pose), also run ICP
-    /// from the anchor and keep the better fit (more inliers, then lower residual).
-    pub also_start_at_anchor: bool,
-    /// Share of the last scan-to-scan motion kept along directions ICP cannot observe, with the
-    /// constant-velocity prior (0: assume no motion there; 1: assume the same motion again).
-    pub weak_direction_velocity: f64,
-    /// Cell size of the map's grid index, metres (speed only; results do not depend on it).
-    pub grid_cell_m: f64,
-    /// With several ICP starts, score them by the soft inlier count of a sample of points and
-    /// run ICP from the best one only (faster); otherwise run ICP from each and keep the best.
-    pub icp_from_best_start_only: bool,
-    /// Soft inlier points by which another start must beat the first (the anchor, "no
-    /// motion", when it is a start) to be chosen.
-    pub start_score_margin: f64,
-    /// When ICP's inliers are fewer than this share of the scan's (thinned) points (the scan
-    /// fits nowhere near the guess: the robot turned during a gap in the log), poses over the
-    /// whole circle and within 1 m of the anchor are scored, ICP runs from the best three, and
-    /// the best result is kept if it has at least twice the inliers and twice this share (0
-    /// turns this off). Not with the odometry prior, whose guess carries the turn.
-    pub recover_below_inlier_share: f64,
-}
-
-impl Default for MapperParams {
-    fn default() -> Self {
-        MapperParams {
-            motion_prior: MotionPrior::ConstantVelocity,
-            merge_margin_m: 1.0,
-            also_start_at_anchor: true,
-            weak_direction_velocity: 0.0,
-            grid_cell_m: 0.5,
-            icp_from_best_start_only: true,
-            start_score_margin: 1.0,
-            recover_below_inlier_share: 0.15,
-        }
-    }
-}
 
 /// What one scan did.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -210,7 +151,7 @@ impl Mapper {
     pub fn new(config: Config) -> Self {
         let reach_m = config.align.initial_gate_m.max(config.align.final_gate_m);
         Mapper {
-            map: GlobalMap::new(config.mapper.grid_cell_m, reach_m),
+            map: GlobalMap::new(config.map.grid_cell_m, reach_m),
             scans: 0,
             last_pose: None,
             prev_pose: None,
@@ -218,7 +159,7 @@ impl Mapper {
             loops: LoopCloser::new(
                 config.loops.clone(),
                 config.align.clone(),
-                config.mapper.grid_cell_m,
+                config.map.grid_cell_m,
             ),
             trajectory: Vec::new(),
             loose: LoosePoints::default(),
@@ -372,13 +313,17 @@ impl Mapper {
                 .map(|s| s.transformed(&pose))
                 .collect()
         };
-        let recent = self
-            .map
-            .born_since(t.saturating_sub(self.config.directions.time_memory_scans));
-        let directions = main_directions(recent.iter(), &self.config.directions).directions_rad;
+        let directions =
+            recent_main_directions(&mut self.map, t, &self.config.directions).directions_rad;
         let directed = Instant::now();
-        let merge =
-            merge_step::merge_scan(&mut self.map, &scan_in_map, &directions, t, &self.config);
+        let merge = merge_scan(
+            &self.config.merge,
+            &mut self.map,
+            &scan_in_map,
+            &directions,
+            t,
+        )
+        .diagnostics;
         let merged = Instant::now();
         self.scans += 1;
         self.trajectory.push(pose);

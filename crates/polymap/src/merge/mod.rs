@@ -9,15 +9,18 @@
 mod candidates;
 mod insertion;
 mod pairing;
+mod scan;
 mod simplify;
 
 use serde::{Deserialize, Serialize};
 
+use crate::check::{Checks, InvalidParam};
 use crate::cost::{Merge, cost_at_most, unit};
 use crate::geometry::{Segment, Vec2};
 pub use candidates::{pairs_within, pairs_within_brute, pairs_within_self};
 pub use insertion::{Piece, insert_vertices};
 pub use pairing::{Child, Pairing, restrictive_pairing};
+pub use scan::{MergeDiagnostics, MergeResult, merge_scan};
 pub use simplify::{Simplified, SimplifiedSegment, simplify, simplify_brute};
 
 /// Parameters of merging.
@@ -45,6 +48,9 @@ pub struct MergeParams {
     /// are joined back into the original segment, so insertion never fragments a segment that
     /// gained nothing from it.
     pub rejoin_unpaired_pieces: bool,
+    /// Locality (an addition): only map segments within this distance (segment to segment) of
+    /// a scan segment take part in merging, metres (infinity: the whole map, as in the paper).
+    pub local_margin_m: f64,
 }
 
 impl Default for MergeParams {
@@ -58,7 +64,30 @@ impl Default for MergeParams {
             insert_max_distance_m: 0.5,
             insert_min_piece_m: 0.1,
             rejoin_unpaired_pieces: true,
+            local_margin_m: 1.0,
         }
+    }
+}
+
+impl MergeParams {
+    /// Checks every key's range; the error names the first key out of range.
+    pub fn validate(&self) -> Result<(), InvalidParam> {
+        let inf = f64::INFINITY;
+        Checks::new()
+            .within("k", self.k, 0.0, 1e6)
+            .within("pairing_threshold", self.pairing_threshold, 0.0, 1e6)
+            .within("simplify_threshold", self.simplify_threshold, 0.0, 1e6)
+            .within("max_children", self.max_children, 1, 1000)
+            .within("max_gap_m", self.max_gap_m, 0.0, inf)
+            .within(
+                "insert_max_distance_m",
+                self.insert_max_distance_m,
+                0.0,
+                100.0,
+            )
+            .within("insert_min_piece_m", self.insert_min_piece_m, 0.0, 100.0)
+            .within("local_margin_m", self.local_margin_m, 0.0, inf)
+            .done()
     }
 }
 

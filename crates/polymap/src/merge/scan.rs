@@ -1,11 +1,10 @@
-//! One merge of an aligned scan into the map near it.
+//! One merge of an aligned scan into the map near it: the stage's entry point.
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::Config;
+use super::{MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
 use crate::geometry::Segment;
 use crate::map::{GlobalMap, MapSegment, SegmentId};
-use crate::merge::{MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
 
 /// Counts through one merge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -34,21 +33,52 @@ struct Item {
     unchanged: Option<usize>,
 }
 
-/// Merges the scan's segments (map frame) into the map near them.
-pub(crate) fn merge_scan(
+/// What one merge did to the map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct MergeResult {
+    /// Map segments removed (parents, and segments merged by simplification).
+    pub removed: usize,
+    /// Segments added (children, merged segments, the scan's unpaired segments).
+    pub added: usize,
+    /// Counts through the stages of the merge.
+    pub diagnostics: MergeDiagnostics,
+}
+
+/// Merges scan `t`'s segments (map frame, metres) into the map near them under the main
+/// directions `directions_rad` (section 3.1): the map segments within
+/// `params.local_margin_m` of a scan segment (`C1`), vertex insertion, restrictive pairing,
+/// simplification; the segments near the scan are replaced by the result, every other map
+/// segment stays untouched. New segments are born at `t`.
+///
+/// ```
+/// use polymap::geometry::{Segment, Vec2};
+/// use polymap::map::{GlobalMap, MapSegment};
+/// use polymap::merge::{MergeParams, merge_scan};
+/// let mut map = GlobalMap::default();
+/// map.insert(MapSegment {
+///     segment: Segment::new(Vec2::new(0.0, 0.0), Vec2::new(4.0, 0.0)),
+///     born_scan: 0,
+/// });
+/// // The same wall seen again, 1 cm off and a little longer: one segment remains.
+/// let scan = [Segment::new(Vec2::new(0.5, 0.01), Vec2::new(5.0, 0.01))];
+/// let result = merge_scan(&MergeParams::default(), &mut map, &scan, &[0.0], 1);
+/// assert_eq!(map.len(), 1);
+/// assert_eq!(result.diagnostics.local_map_segments, 1);
+/// ```
+pub fn merge_scan(
+    params: &MergeParams,
     map: &mut GlobalMap,
     scan: &[Segment],
     directions_rad: &[f64],
     t: u32,
-    config: &Config,
-) -> MergeDiagnostics {
-    let ids = local_ids(map, scan, config.mapper.merge_margin_m);
+) -> MergeResult {
+    let ids = local_ids(map, scan, params.local_margin_m);
     let c1: Vec<MapSegment> = ids.iter().filter_map(|id| map.get(*id).copied()).collect();
-    let (items, mut diagnostics) = pair(&c1, scan, directions_rad, t, &config.merge);
+    let (items, mut diagnostics) = pair(&c1, scan, directions_rad, t, params);
     let simplified = simplify(
         &items.iter().map(|i| i.segment).collect::<Vec<_>>(),
         directions_rad,
-        &config.merge,
+        params,
     );
     diagnostics.local_map_segments = ids.len();
     diagnostics.merges = simplified.merges;
@@ -71,13 +101,20 @@ pub(crate) fn merge_scan(
             }),
         }
     }
+    let mut removed = 0;
     for (id, _) in ids.iter().zip(&untouched).filter(|(_, u)| !**u) {
         map.remove(*id);
+        removed += 1;
     }
+    let added = new_segments.len();
     for s in new_segments {
         map.insert(s);
     }
-    diagnostics
+    MergeResult {
+        removed,
+        added,
+        diagnostics,
+    }
 }
 
 /// Vertex insertion and restrictive pairing of the local map `c1` with the scan: `A_t` (the
