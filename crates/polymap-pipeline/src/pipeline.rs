@@ -113,6 +113,9 @@ pub enum PipelineError {
     /// The reading thread panicked (a bug): its message.
     #[error("the reading thread failed: {0}")]
     ReadingThread(String),
+    /// Loop closure failed on its thread (a bug): the node and the message.
+    #[error(transparent)]
+    LoopClosure(#[from] polymap::loops::LoopFailure),
 }
 
 /// Scans handed over per batch from a regular file...
@@ -211,7 +214,7 @@ where
                 .map_err(|panic| PipelineError::ReadingThread(panic_message(&panic)))?,
         )
     };
-    let mut record = rec.finish(interrupted);
+    let mut record = rec.finish(interrupted)?;
     record.timings.elapsed = start.elapsed();
     Ok(RunOutcome { record, source })
 }
@@ -382,10 +385,11 @@ impl Recorder {
         self.last = update.diagnostics;
     }
 
-    /// Finishes loop closure and puts the final poses into the trajectory.
-    fn finish(mut self, interrupted: bool) -> RunRecord {
+    /// Finishes loop closure and puts the final poses into the trajectory; a failure of loop
+    /// closure during the run is the error.
+    fn finish(mut self, interrupted: bool) -> Result<RunRecord, polymap::loops::LoopFailure> {
         let clock = Instant::now();
-        let loops = self.mapper.finish();
+        let loops = self.mapper.finish()?;
         self.timings.map += clock.elapsed();
         self.timings.stages.loops += clock.elapsed().as_secs_f64();
         self.last.loops = loops;
@@ -400,7 +404,7 @@ impl Recorder {
             &self.mapper.config().directions,
         );
         let history = self.history.finish(segments, polylines, content);
-        RunRecord {
+        Ok(RunRecord {
             mapper: self.mapper,
             trajectory: self.trajectory,
             scan_points: self.scan_points,
@@ -410,7 +414,7 @@ impl Recorder {
             icp_not_converged: self.icp_not_converged,
             valid_returns: self.valid_returns,
             interrupted,
-        }
+        })
     }
 }
 
@@ -485,7 +489,7 @@ mod tests {
         for s in &scans {
             mapper.push(s);
         }
-        mapper.finish();
+        mapper.finish().expect("loop closure does not fail");
         for stream in [false, true] {
             let options = PipelineOptions {
                 stream,

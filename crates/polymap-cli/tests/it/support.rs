@@ -50,7 +50,7 @@ pub fn sim(name: &str) -> SimRun {
 pub fn map_run(run: &SimRun, config: Config) -> (Mapper, Vec<Update>) {
     let mut mapper = Mapper::new(config);
     let updates = run.scans.iter().map(|s| mapper.push(s)).collect();
-    mapper.finish();
+    mapper.finish().expect("loop closure does not fail");
     (mapper, updates)
 }
 

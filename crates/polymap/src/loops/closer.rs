@@ -7,7 +7,7 @@ use crate::geometry::{Pose2, Segment, Vec2};
 
 use super::nodes::{NodeDone, NodeGraph, Submap};
 use super::worker::Worker;
-use super::{Correction, LoopDiagnostics, LoopParams};
+use super::{Correction, LoopDiagnostics, LoopFailure, LoopParams};
 
 /// The node being filled by the mapper.
 #[derive(Debug, Clone, Default)]
@@ -33,6 +33,8 @@ pub struct LoopCloser {
     open: OpenNode,
     worker: Worker,
     loop_edges: usize,
+    /// The first failure of the graph's work; loop closure stops there.
+    failure: Option<LoopFailure>,
 }
 
 impl LoopCloser {
@@ -55,12 +57,29 @@ impl LoopCloser {
             poses: Vec::new(),
             open: OpenNode::default(),
             loop_edges: 0,
+            failure: None,
         }
     }
 
     /// The node that scan `t` belongs to.
     pub fn node_of(&self, t: u32) -> usize {
         (t / self.params.node_scans) as usize
+    }
+
+    /// The failure that stopped loop closure, if one did (a panic while matching or
+    /// optimising: a bug). Mapping goes on without loop closure from the scan it was taken in.
+    pub fn failure(&self) -> Option<&LoopFailure> {
+        self.failure.as_ref()
+    }
+
+    /// Queues a failure as if the graph had published it for `node`.
+    #[cfg(test)]
+    pub(super) fn inject_failure(&mut self, node: usize, message: &str) {
+        let failure = LoopFailure {
+            node,
+            message: message.to_string(),
+        };
+        self.worker.push_outcome(node, Err(failure));
     }
 
     /// Loop edges taken in so far.
@@ -80,6 +99,9 @@ impl LoopCloser {
         segments_in_robot: &[Segment],
         diagnostics: &mut LoopDiagnostics,
     ) -> Option<Correction> {
+        if self.failure.is_some() {
+            return None;
+        }
         let ns = self.params.node_scans;
         let k = self.node_of(t);
         if self.poses.len() <= k {
@@ -141,7 +163,14 @@ impl LoopCloser {
     /// correction when nodes moved.
     fn take_in(&mut self, diagnostics: &mut LoopDiagnostics) -> Option<Correction> {
         let pending = self.worker.pending.pop_front()?;
-        let result = pending.result.wait();
+        let result = match pending.result.wait() {
+            Ok(result) => result,
+            Err(failure) => {
+                self.failure.get_or_insert_with(|| failure.clone());
+                self.worker.pending.clear();
+                return None;
+            }
+        };
         let d = &result.diagnostics;
         diagnostics.candidates += d.candidates;
         diagnostics.searches += d.searches;

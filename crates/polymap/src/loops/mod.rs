@@ -45,6 +45,20 @@ pub use closer::LoopCloser;
 pub use graph::Edge;
 pub use params::{LoopParams, MAX_SEARCH_STARTS};
 
+/// The graph's work for a node failed (a panic while matching or optimising: a bug, never
+/// expected). Loop closure stops there; the mapper reports it from
+/// [`crate::mapper::Mapper::finish`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "loop closure failed on node {node}: {message} (set `[loops] enabled = false` to map without it)"
+)]
+pub struct LoopFailure {
+    /// The node whose matching or optimisation failed.
+    pub node: usize,
+    /// What the failure said.
+    pub message: String,
+}
+
 /// What loop closure did after one scan.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 pub struct LoopDiagnostics {

@@ -2,8 +2,9 @@
 
 use super::closer::merge_corrections;
 use super::*;
+use crate::align::AlignParams;
 use crate::config::Config;
-use crate::geometry::{Segment, Vec2};
+use crate::geometry::{Pose2, Segment, Vec2};
 use crate::mapper::Mapper;
 use crate::testutil::scan_from;
 
@@ -330,4 +331,27 @@ fn every_key_is_checked() {
     for b in bad {
         assert!(b.validate().is_err(), "{b:?}");
     }
+}
+
+/// Issue 13: a panic on the loop thread was turned into an empty outcome without a trace.
+#[test]
+fn a_failure_of_the_graph_stops_loop_closure_and_is_reported() {
+    let params = LoopParams {
+        background: false,
+        ..LoopParams::default()
+    };
+    let mut closer = LoopCloser::new(params, AlignParams::default(), 0.5);
+    closer.inject_failure(0, "boom");
+    let mut diagnostics = LoopDiagnostics::default();
+    assert_eq!(closer.finish(&mut diagnostics), None);
+    let failure = closer.failure().expect("the failure is kept");
+    assert_eq!((failure.node, failure.message.as_str()), (0, "boom"));
+    assert!(failure.to_string().contains("enabled = false"), "{failure}");
+    // Nothing more is handed to the graph.
+    let points = [Vec2::new(1.0, 0.0)];
+    for t in 0..100 {
+        let c = closer.add_scan(t, Pose2::IDENTITY, &points, &[], &mut diagnostics);
+        assert_eq!(c, None);
+    }
+    assert_eq!(closer.loop_edges(), 0);
 }

@@ -7,7 +7,14 @@ use std::panic::AssertUnwindSafe;
 use std::sync::mpsc::Sender;
 use std::sync::{Arc, Mutex, OnceLock};
 
+use super::LoopFailure;
 use super::nodes::{JobResult, NodeDone, NodeGraph};
+
+/// What the graph publishes for one node: its outcome, or the failure that stopped it.
+pub(super) type Outcome = Result<JobResult, LoopFailure>;
+
+/// A node on its way to the thread, with the slot for its outcome.
+type Job = (NodeDone, Arc<OnceLock<Outcome>>);
 
 /// An outcome on its way from the graph.
 #[derive(Debug, Clone)]
@@ -15,7 +22,7 @@ pub(super) struct Pending {
     /// The node it is for.
     pub(super) node: usize,
     /// Set once, when the graph is done with the node.
-    pub(super) result: Arc<OnceLock<JobResult>>,
+    pub(super) result: Arc<OnceLock<Outcome>>,
 }
 
 /// The graph and, once started, the thread that works on it.
@@ -23,7 +30,7 @@ pub(super) struct Pending {
 pub(super) struct Worker {
     graph: Arc<Mutex<NodeGraph>>,
     background: bool,
-    thread: Option<Sender<(NodeDone, Arc<OnceLock<JobResult>>)>>,
+    thread: Option<Sender<Job>>,
     /// Outcomes not yet taken in, oldest first.
     pub(super) pending: VecDeque<Pending>,
 }
@@ -81,8 +88,8 @@ impl Worker {
     }
 
     /// Starts the thread; `None` when the system refuses one.
-    fn start(&self) -> Option<Sender<(NodeDone, Arc<OnceLock<JobResult>>)>> {
-        let (tx, rx) = std::sync::mpsc::channel::<(NodeDone, Arc<OnceLock<JobResult>>)>();
+    fn start(&self) -> Option<Sender<Job>> {
+        let (tx, rx) = std::sync::mpsc::channel::<Job>();
         let graph = Arc::clone(&self.graph);
         std::thread::Builder::new()
             .name("polymap-loops".into())
@@ -96,14 +103,57 @@ impl Worker {
     }
 }
 
-/// The graph, also after a panic while it was locked (the panicking job's node then simply
-/// has no loop edges).
+#[cfg(test)]
+impl Worker {
+    /// Queues an outcome as if the graph had published it for `node`.
+    pub(super) fn push_outcome(&mut self, node: usize, outcome: Outcome) {
+        let result = Arc::new(OnceLock::new());
+        let _ = result.set(outcome);
+        self.pending.push_back(Pending { node, result });
+    }
+}
+
+/// The graph, also after a panic while it was locked (the failure is published, and loop
+/// closure stops: see [`super::LoopCloser::failure`]).
 fn lock(graph: &Mutex<NodeGraph>) -> std::sync::MutexGuard<'_, NodeGraph> {
     graph.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Runs the graph's work for one node and publishes the outcome (empty after a panic).
-fn run_node(graph: &Mutex<NodeGraph>, done: NodeDone, slot: &OnceLock<JobResult>) {
-    let outcome = std::panic::catch_unwind(AssertUnwindSafe(|| lock(graph).add(done)));
-    let _ = slot.set(outcome.unwrap_or_default());
+/// Runs the graph's work for one node and publishes the outcome.
+fn run_node(graph: &Mutex<NodeGraph>, done: NodeDone, slot: &OnceLock<Outcome>) {
+    let node = done.node;
+    publish(slot, node, || lock(graph).add(done));
+}
+
+/// Runs `job` for `node` and publishes its result in `slot`, or, when it panics, a
+/// [`LoopFailure`] with the panic's message: a failure is never lost.
+fn publish(slot: &OnceLock<Outcome>, node: usize, job: impl FnOnce() -> JobResult) {
+    let outcome = std::panic::catch_unwind(AssertUnwindSafe(job)).map_err(|payload| {
+        let message = payload
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| payload.downcast_ref::<String>().cloned())
+            .unwrap_or_else(|| "a panic without a message".to_string());
+        LoopFailure { node, message }
+    });
+    // Every slot is fresh and set here only, once.
+    let first = slot.set(outcome).is_ok();
+    debug_assert!(first, "the outcome of node {node} was published twice");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_is_published_as_a_failure_with_its_message() {
+        let slot = OnceLock::new();
+        publish(&slot, 7, || panic!("index out of bounds"));
+        let failure = slot.get().unwrap().as_ref().unwrap_err();
+        assert_eq!(failure.node, 7);
+        assert_eq!(failure.message, "index out of bounds");
+        let slot = OnceLock::new();
+        publish(&slot, 8, JobResult::default);
+        assert!(slot.get().unwrap().is_ok());
+    }
 }

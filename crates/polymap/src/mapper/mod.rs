@@ -19,7 +19,7 @@ use crate::config::Config;
 use crate::directions::recent_main_directions;
 use crate::extract::extract_segments;
 use crate::geometry::{Pose2, Segment, Vec2};
-use crate::loops::{Correction, LoopCloser, LoopDiagnostics};
+use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure};
 use crate::map::{GlobalMap, MapSegment};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
@@ -198,14 +198,23 @@ impl Mapper {
     }
 
     /// Takes in every outcome of loop closure still pending (see [`crate::loops`]); call it
-    /// after the last scan, before reading [`Mapper::trajectory`] and the map for good. Pushing more scans
-    /// afterwards is fine.
-    pub fn finish(&mut self) -> LoopDiagnostics {
+    /// after the last scan, before reading [`Mapper::trajectory`] and the map for good. Pushing
+    /// more scans afterwards is fine.
+    ///
+    /// # Errors
+    ///
+    /// When loop closure failed during the run (a panic on its thread: a bug), with the node
+    /// it failed on; the map and trajectory are then those of mapping without loop closure
+    /// from there on.
+    pub fn finish(&mut self) -> Result<LoopDiagnostics, LoopFailure> {
         let mut diagnostics = LoopDiagnostics::default();
         if let Some(c) = self.loops.finish(&mut diagnostics) {
             self.apply_correction(&c);
         }
-        diagnostics
+        match self.loops.failure() {
+            Some(failure) => Err(failure.clone()),
+            None => Ok(diagnostics),
+        }
     }
 
     /// Tracking verdict counts so far, with the ranges of lost scans.
