@@ -6,6 +6,7 @@
 //! one line across a doorway would merge. A pair is only considered when the segments come
 //! within `max_gap_m` of each other (set it to infinity for the paper's behaviour).
 
+mod bands;
 mod candidates;
 mod insertion;
 mod pairing;
@@ -122,10 +123,9 @@ pub(crate) fn best_merge_at_most(
     for (i, &ad) in directions.iter().enumerate() {
         if let Some(m) = cost_at_most(l1, l2, ad, k, max_cost)
             .filter(|m| m.cost.is_finite() && m.cost <= max_cost)
+            && best.is_none_or(|(_, b)| m.cost < b.cost)
         {
-            if best.is_none_or(|(_, b)| m.cost < b.cost) {
-                best = Some((i, m));
-            }
+            best = Some((i, m));
         }
     }
     best

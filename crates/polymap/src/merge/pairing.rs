@@ -1,5 +1,6 @@
 //! Restrictive pairing (section 2.1): children of map/scan pairs cheaper than `T_p`.
 
+use super::bands::{band_m, band_pairs};
 use super::{MergeParams, best_merge_at_most, pairs_within, units};
 use crate::geometry::Segment;
 
@@ -52,7 +53,14 @@ pub fn restrictive_pairing(
     params: &MergeParams,
 ) -> Pairing {
     let directions = units(directions_rad);
-    let mut candidates: Vec<Child> = pairs_within(c1, c2, params.max_gap_m)
+    // Without a proximity gate, the cost's bound finds the pairs that can pair at all.
+    let band =
+        band_m(params.k, params.pairing_threshold).filter(|_| params.max_gap_m.is_infinite());
+    let pairs = match band {
+        Some(band) => band_pairs(c1, Some(c2), &directions, band),
+        None => pairs_within(c1, c2, params.max_gap_m),
+    };
+    let mut candidates: Vec<Child> = pairs
         .into_iter()
         .filter_map(|(i, j)| {
             let (dir, m) = best_merge_at_most(

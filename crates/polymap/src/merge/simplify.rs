@@ -10,6 +10,7 @@ use std::collections::BinaryHeap;
 
 use rstar::RTree;
 
+use super::bands::{BandKey, band_m, band_pairs, keys, may_merge};
 use super::candidates::{
     BRUTE_FORCE_PAIRS, box_entry, boxes_within, expanded_envelope, pairs_within_self_walk_limit,
 };
@@ -104,23 +105,34 @@ pub(crate) fn simplify_with_walk_limit(
             &directions,
             params.k,
             params.simplify_threshold,
-        ) {
-            if m.cost <= params.simplify_threshold {
-                heap.push(Candidate {
-                    cost: m.cost,
-                    i,
-                    j,
-                    segment: m.segment,
-                });
-            }
+        ) && m.cost <= params.simplify_threshold
+        {
+            heap.push(Candidate {
+                cost: m.cost,
+                i,
+                j,
+                segment: m.segment,
+            });
         }
     };
-    for (i, j) in pairs_within_self_walk_limit(&segs, params.max_gap_m, walk_limit) {
+    // Without a proximity gate, the cost's bound finds the pairs that can merge at all.
+    let band =
+        band_m(params.k, params.simplify_threshold).filter(|_| params.max_gap_m.is_infinite());
+    let pairs = match band {
+        Some(band) => band_pairs(&segs, None, &directions, band),
+        None => pairs_within_self_walk_limit(&segs, params.max_gap_m, walk_limit),
+    };
+    for (i, j) in pairs {
         push(&mut heap, &segs, i, j);
     }
     let mut boxes: Vec<(Vec2, Vec2)> = segs.iter().map(Segment::bounds).collect();
-    // New partners are found by walking all segments while that is cheap, by an R-tree after.
-    let mut tree = (segs.len() * segs.len() > walk_limit).then(|| {
+    let mut band_keys: Vec<Vec<BandKey>> = match band {
+        Some(_) => segs.iter().map(|s| keys(s, &directions)).collect(),
+        None => Vec::new(),
+    };
+    // New partners are found by walking all segments while that is cheap, by an R-tree after
+    // (by the band's keys without a proximity gate).
+    let mut tree = (band.is_none() && segs.len() * segs.len() > walk_limit).then(|| {
         RTree::bulk_load(
             segs.iter()
                 .enumerate()
@@ -146,6 +158,15 @@ pub(crate) fn simplify_with_walk_limit(
                     .distance_to_segment_within(&c.segment, params.max_gap_m)
                     .is_some()
         };
+        if let Some(band) = band {
+            band_keys.push(keys(&c.segment, &directions));
+            let partners =
+                (0..k).filter(|o| alive[*o] && may_merge(&band_keys[*o], &band_keys[k], band));
+            for o in partners.collect::<Vec<_>>() {
+                push(&mut heap, &segs, o, k);
+            }
+            continue;
+        }
         let mut partners: Vec<usize> = match &mut tree {
             Some(tree) => {
                 tree.remove(&box_entry(&segs[c.i], c.i));
