@@ -145,7 +145,11 @@ fn bin_of(direction_rad: f64, bin_width: f64, bins: usize) -> usize {
 fn smooth_cyclic(raw: &[f64], window: usize) -> Vec<f64> {
     let n = raw.len() as isize;
     let half = (window.max(1) / 2) as isize;
-    let odd_extra = if window.max(1) % 2 == 0 { 1 } else { 0 };
+    let odd_extra = if window.max(1).is_multiple_of(2) {
+        1
+    } else {
+        0
+    };
     (0..n)
         .map(|i| {
             (i - half + odd_extra..=i + half)

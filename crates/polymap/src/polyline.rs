@@ -56,7 +56,7 @@ pub fn group_polylines(segments: &[Segment], max_gap_m: f64) -> Vec<Vec<usize>> 
     let n = segments.len();
     // Endpoint e = 2·i (start) or 2·i + 1 (end) of segment i.
     let point = |e: usize| {
-        if e % 2 == 0 {
+        if e.is_multiple_of(2) {
             segments[e / 2].start
         } else {
             segments[e / 2].end

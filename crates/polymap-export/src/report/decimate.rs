@@ -128,7 +128,7 @@ impl<T> StrideThinning<T> {
 
     /// True when an item at `scan_index` would be kept.
     pub(crate) fn is_due(&self, scan_index: u32) -> bool {
-        scan_index % self.stride == 0
+        scan_index.is_multiple_of(self.stride)
     }
 
     /// Keeps `item` (call only when [`Self::is_due`]), then thins to fit `budget`, never below

@@ -111,7 +111,7 @@ impl LoopCloser {
             };
             self.poses.push(map_from_robot);
         }
-        if (t % ns) % self.params.node_keep_every == 0 {
+        if (t % ns).is_multiple_of(self.params.node_keep_every) {
             let node_from_robot = self.poses[k].between(&map_from_robot);
             let spacing = self.params.node_point_spacing_m;
             let open = &mut self.open;
@@ -131,7 +131,7 @@ impl LoopCloser {
                     .map(|s| s.transformed(&node_from_robot)),
             );
         }
-        if (t + 1) % ns != 0 {
+        if !(t + 1).is_multiple_of(ns) {
             return None;
         }
         let open = std::mem::take(&mut self.open);
