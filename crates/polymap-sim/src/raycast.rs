@@ -41,15 +41,7 @@ pub struct RayHit {
 /// assert_eq!(ray_segment_m(Vec2::ZERO, -Vec2::X, &wall), None);
 /// ```
 pub fn ray_segment_m(origin: Vec2, dir: Vec2, wall: &Segment) -> Option<f64> {
-    let e = wall.vector();
-    let denom = dir.perp_dot(e);
-    if denom == 0.0 || !denom.is_finite() {
-        return None;
-    }
-    let ao = wall.start - origin;
-    let t = ao.perp_dot(e) / denom;
-    let s = ao.perp_dot(dir) / denom;
-    (t > 0.0 && (0.0..=1.0).contains(&s)).then_some(t)
+    wall.ray_hit_m(origin, dir)
 }
 
 /// Distance along the unit ray `origin + t·dir` to a pillar's circle, if at `t > 0`: the

@@ -1,23 +1,15 @@
-//! Test helpers: a tiny ray caster producing range scans from a wall world.
+//! Test helpers: range scans ray-cast in a wall world (the unit tests cannot link the
+//! simulator, which depends on this crate; they share its ray–segment test instead).
 
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::scan::{RangeScan, Stamp};
 
-/// The nearest hit of a ray with the walls, metres.
+/// The nearest hit of a ray with the walls, metres (the simulator's ray–segment test,
+/// [`Segment::ray_hit_m`]).
 pub(crate) fn ray_hit(walls: &[Segment], origin: Vec2, dir: Vec2) -> Option<f64> {
     walls
         .iter()
-        .filter_map(|s| {
-            let v = s.vector();
-            let den = dir.perp_dot(v);
-            if den.abs() < 1e-12 {
-                return None;
-            }
-            let w = s.start - origin;
-            let t = w.perp_dot(v) / den;
-            let u = w.perp_dot(dir) / den;
-            (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-        })
+        .filter_map(|s| s.ray_hit_m(origin, dir))
         .min_by(f64::total_cmp)
 }
 

@@ -48,24 +48,11 @@ pub fn scan(map_from_robot: &Pose2) -> Vec<Vec2> {
             let origin = map_from_robot.translation();
             let range = walls
                 .iter()
-                .filter_map(|w| ray_hit(origin, dir_in_map, w))
+                .filter_map(|w| w.ray_hit_m(origin, dir_in_map))
                 .fold(f64::INFINITY, f64::min);
             range.is_finite().then(|| dir_in_robot * range)
         })
         .collect()
-}
-
-/// Distance along a ray to a segment, if it hits.
-fn ray_hit(origin: Vec2, dir: Vec2, s: &Segment) -> Option<f64> {
-    let v = s.vector();
-    let denom = dir.perp_dot(v);
-    if denom.abs() < 1e-12 {
-        return None;
-    }
-    let w = s.start - origin;
-    let t = w.perp_dot(v) / denom;
-    let u = w.perp_dot(dir) / denom;
-    (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
 }
 
 /// Wrapped as map segments, all born at scan 0, with one polyline per wall.

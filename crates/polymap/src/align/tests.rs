@@ -30,21 +30,7 @@ fn cast(world: &[Segment], map_from_robot: &Pose2) -> Vec<Vec2> {
     for i in 0..360 {
         let a = map_from_robot.theta_rad + (i as f64).to_radians();
         let d = Vec2::new(a.cos(), a.sin());
-        let hit = world
-            .iter()
-            .filter_map(|s| {
-                let v = s.vector();
-                let den = d.perp_dot(v);
-                if den.abs() < 1e-12 {
-                    return None;
-                }
-                let w = s.start - o;
-                let t = w.perp_dot(v) / den;
-                let u = w.perp_dot(d) / den;
-                (t > 0.0 && (0.0..=1.0).contains(&u)).then_some(t)
-            })
-            .fold(f64::INFINITY, f64::min);
-        if hit.is_finite() {
+        if let Some(hit) = crate::testutil::ray_hit(world, o, d) {
             pts.push(map_from_robot.inverse().transform_point(o + d * hit));
         }
     }

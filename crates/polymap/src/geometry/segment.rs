@@ -43,6 +43,29 @@ impl Segment {
         self.end - self.start
     }
 
+    /// Distance along the unit ray `origin + t·dir` to this segment, if the ray crosses it at
+    /// `t > 0`, metres; a ray parallel to the segment (grazing along it) does not hit it. The
+    /// one ray–segment test of the project (the simulator's ray caster and the tests' scans).
+    ///
+    /// ```
+    /// use polymap::geometry::{Segment, Vec2};
+    /// let wall = Segment::new(Vec2::new(3.0, -1.0), Vec2::new(3.0, 1.0));
+    /// assert_eq!(wall.ray_hit_m(Vec2::ZERO, Vec2::X), Some(3.0));
+    /// assert_eq!(wall.ray_hit_m(Vec2::ZERO, -Vec2::X), None);
+    /// ```
+    #[inline]
+    pub fn ray_hit_m(&self, origin: Vec2, dir: Vec2) -> Option<f64> {
+        let e = self.vector();
+        let denom = dir.perp_dot(e);
+        if denom == 0.0 || !denom.is_finite() {
+            return None;
+        }
+        let ao = self.start - origin;
+        let t = ao.perp_dot(e) / denom;
+        let s = ao.perp_dot(dir) / denom;
+        (t > 0.0 && (0.0..=1.0).contains(&s)).then_some(t)
+    }
+
     /// Length, metres.
     pub fn length(&self) -> f64 {
         self.vector().length()
