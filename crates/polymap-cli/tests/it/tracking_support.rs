@@ -188,7 +188,7 @@ pub fn map_every(run: &SimRun, every: usize, offset: usize, config: Config) -> M
     let mut mapper = Mapper::new(config);
     let clock = Instant::now();
     let updates: Vec<_> = kept.iter().map(|&k| mapper.push(&run.scans[k])).collect();
-    mapper.finish();
+    mapper.finish().expect("loop closure does not fail");
     let seconds = clock.elapsed().as_secs_f64();
     Mapped {
         truth: kept.iter().map(|&k| truth_all[k]).collect(),
