@@ -142,18 +142,33 @@ impl TrackParams {
     pub fn validate(&self) -> Result<(), InvalidParam> {
         Checks::new()
             .within("search_above_step_m", self.search_above_step_m, 0.0, 1e3)
-            .within("search_above_turn_deg", self.search_above_turn_deg, 0.0, 360.0)
+            .within(
+                "search_above_turn_deg",
+                self.search_above_turn_deg,
+                0.0,
+                360.0,
+            )
             .share("search_below_inlier_share", self.search_below_inlier_share)
             .within("min_window_m", self.min_window_m, 0.0, 10.0)
             .within("max_window_m", self.max_window_m, self.min_window_m, 10.0)
             .within("min_window_deg", self.min_window_deg, 0.0, 180.0)
-            .within("max_window_deg", self.max_window_deg, self.min_window_deg, 180.0)
+            .within(
+                "max_window_deg",
+                self.max_window_deg,
+                self.min_window_deg,
+                180.0,
+            )
             .within("window_per_step", self.window_per_step, 0.0, 100.0)
             .within("window_per_turn", self.window_per_turn, 0.0, 100.0)
             .within("window_deg_per_m", self.window_deg_per_m, 0.0, 1000.0)
             .within("lost_window_growth_m", self.lost_window_growth_m, 0.0, 10.0)
             .within("lost_window_max_m", self.lost_window_max_m, 0.0, 50.0)
-            .within("relocalize_every_lost", self.relocalize_every_lost, 0, 1_000_000)
+            .within(
+                "relocalize_every_lost",
+                self.relocalize_every_lost,
+                0,
+                1_000_000,
+            )
             .within("search_cell_m", self.search_cell_m, 0.01, 1.0)
             .within("search_sigma_m", self.search_sigma_m, 0.01, 5.0)
             .within("search_points", self.search_points, 1, 10_000)
@@ -169,7 +184,12 @@ impl TrackParams {
             .within("rival_apart_deg", self.rival_apart_deg, 0.0, 180.0)
             .share("ambiguous_above", self.ambiguous_above)
             .within("loose_point_scans", self.loose_point_scans, 0, 1000)
-            .within("loose_point_spacing_m", self.loose_point_spacing_m, 0.01, 10.0)
+            .within(
+                "loose_point_spacing_m",
+                self.loose_point_spacing_m,
+                0.01,
+                10.0,
+            )
             .done()
     }
 }

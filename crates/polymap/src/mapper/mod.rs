@@ -575,7 +575,7 @@ impl Mapper {
             return (Some(result), None, false);
         }
         let every = tracking.relocalize_every_lost;
-        let global = every > 0 && self.lost_streak > 0 && self.lost_streak % every == 0;
+        let global = every > 0 && self.lost_streak > 0 && self.lost_streak.is_multiple_of(every);
         let window = match global.then(|| self.whole_map_window(&guess)).flatten() {
             Some(w) => w,
             None => search_window(&guess, &anchor, self.lost_streak, tracking),
