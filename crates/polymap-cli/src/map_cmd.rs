@@ -156,7 +156,7 @@ fn map_source(
             w.write(&e.stamp.text, e.update)?;
         }
         let mapped = e.index as u64 + 1;
-        if mapped % 64 == 0 {
+        if mapped.is_multiple_of(64) {
             if bar.length().is_some() {
                 bar.set_position(e.bytes_read);
             }

@@ -209,7 +209,7 @@ impl ScanPoints {
         let mut index = 0usize;
         for (pose, points) in self.rays(map_from_robot) {
             for p in points {
-                if index % step == 0 {
+                if index.is_multiple_of(step) {
                     out.push(pose.transform_point(*p));
                 }
                 index += 1;
