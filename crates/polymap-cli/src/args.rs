@@ -111,10 +111,10 @@ pub struct SimulateArgs {
     /// (ROS 1, lz4 chunks), with the laser on /scan and odometry on /odom.
     #[arg(long)]
     pub ros: bool,
-    /// The laser's field of view, degrees (one beam per degree, centred ahead): 180 (the
-    /// default, written as CARMEN FLASER), 270 or 360.
-    #[arg(long, default_value_t = 180, value_parser = clap::value_parser!(u16).range(1..=360))]
-    pub fov_deg: u16,
+    /// The laser's field of view, degrees (one beam per degree, centred ahead; e.g. 180, 270,
+    /// 360), instead of the world's own laser.
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=360))]
+    pub fov_deg: Option<u16>,
 }
 
 #[derive(Debug, Args)]

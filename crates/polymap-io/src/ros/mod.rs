@@ -14,12 +14,14 @@
 //! On top of them, [`messages`] decodes `sensor_msgs/LaserScan` and `nav_msgs/Odometry` by
 //! hand ([`wire`]: ROS 1 serialization and CDR in both byte orders), [`scans`] turns a laser
 //! topic into [`RangeScan`](polymap::scan::RangeScan)s with odometry interpolated to each
-//! scan's stamp, and [`survey`] counts what a file holds.
+//! scan's stamp, and [`survey`] counts what a file holds. [`record`] writes scans as MCAP
+//! files and bags (the simulator's ROS output).
 
 pub mod error;
 pub mod folder;
 pub mod mcap_file;
 pub mod messages;
+pub mod record;
 pub mod ros1;
 pub mod scans;
 pub mod source;
@@ -34,6 +36,7 @@ use std::path::Path;
 pub use error::{MessageProblem, RosError};
 pub use folder::parse_metadata;
 pub use messages::{LaserScanMsg, OdometryMsg, RosTime};
+pub use record::{LASER_FRAME, ODOM_TOPIC, SCAN_TOPIC, float32_scan, write_bag, write_mcap};
 pub use scans::{RosScanOptions, RosScanReader, RosStats};
 pub use source::{Connection, Encoding, MessageSource, Place, RawMessage, ReadLimits};
 pub use survey::{LaserGeometry, TopicSummary, survey};

@@ -87,7 +87,13 @@ pub fn extract_segments(
     let mut out = Vec::new();
     let mut vertices = Vec::new();
     for run in split_runs(points, angle_increment_rad, params) {
-        extract_run(&points[run.clone()], run.start, params, &mut vertices, &mut out);
+        extract_run(
+            &points[run.clone()],
+            run.start,
+            params,
+            &mut vertices,
+            &mut out,
+        );
     }
     out
 }
@@ -135,12 +141,22 @@ pub fn extract_segments_closed(
         // One closed curve: start it at a corner, and close it by repeating that point.
         simplify_run(points, params.tolerance_m, &mut vertices);
         start = corner(points, &vertices);
-        ring = points[start..].iter().chain(&points[..=start]).copied().collect();
+        ring = points[start..]
+            .iter()
+            .chain(&points[..=start])
+            .copied()
+            .collect();
     } else {
         // The last run continues into the first.
         let (first, last) = (runs[0].clone(), runs[runs.len() - 1].clone());
         for run in &runs[1..runs.len() - 1] {
-            extract_run(&points[run.clone()], run.start, params, &mut vertices, &mut out);
+            extract_run(
+                &points[run.clone()],
+                run.start,
+                params,
+                &mut vertices,
+                &mut out,
+            );
         }
         start = last.start;
         ring = points[last].iter().chain(&points[first]).copied().collect();

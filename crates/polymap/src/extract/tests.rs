@@ -126,9 +126,17 @@ fn a_closed_scan_is_not_cut_at_its_seam() {
     let pts = room_scan(2.0, 0.0); // the seam lies in the middle of the wall at x = 2
     let open = extract_segments(&pts, 1f64.to_radians(), &ExtractParams::default());
     let closed = extract_segments_closed(&pts, 1f64.to_radians(), &ExtractParams::default());
-    assert_eq!(open.len(), 5, "read as an open curve the seam splits a wall");
+    assert_eq!(
+        open.len(),
+        5,
+        "read as an open curve the seam splits a wall"
+    );
     assert_eq!(closed.len(), 4);
-    assert!(closed.iter().all(|s| (s.segment.length() - 4.0).abs() < 0.2));
+    assert!(
+        closed
+            .iter()
+            .all(|s| (s.segment.length() - 4.0).abs() < 0.2)
+    );
     let support: usize = closed.iter().map(|s| s.point_count).sum();
     assert!(support >= 356, "{support}");
 }
@@ -147,7 +155,10 @@ fn a_closed_scan_with_a_gap_elsewhere_joins_the_runs_at_its_seam() {
         .collect();
     assert_eq!(seam_wall.len(), 1, "{closed:?}");
     assert!((seam_wall[0].segment.length() - 4.0).abs() < 0.2);
-    assert!(seam_wall[0].first_point + seam_wall[0].point_count > pts.len(), "wraps");
+    assert!(
+        seam_wall[0].first_point + seam_wall[0].point_count > pts.len(),
+        "wraps"
+    );
 }
 
 #[test]
