@@ -79,7 +79,10 @@ fn the_hokuyo_bag_maps_to_a_coherent_picture() {
     assert!(eval.status.success(), "{}", text(&eval));
     let v: serde_json::Value = serde_json::from_slice(&eval.stdout).unwrap();
     let share = v["points"]["share_within_loose"].as_f64().unwrap();
-    assert!(share > 0.97, "only {share} of the points within 10 cm of the map");
+    assert!(
+        share > 0.97,
+        "only {share} of the points within 10 cm of the map"
+    );
     let segments = v["segments"].as_u64().unwrap();
     assert!((8..60).contains(&segments), "{segments} segments");
 }
@@ -90,18 +93,30 @@ fn info_tells_topics_counts_and_laser_geometry() {
         eprintln!("SKIPPED: ../shared/datasets is absent");
         return;
     };
-    let out = polymap(&["info", dir.join("ros/laser-only-hokuyo.bag").to_str().unwrap()]);
+    let out = polymap(&[
+        "info",
+        dir.join("ros/laser-only-hokuyo.bag").to_str().unwrap(),
+    ]);
     assert!(out.status.success(), "{}", text(&out));
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(s.contains("ROS 1 bag"), "{s}");
-    assert!(s.contains("/scan  sensor_msgs/LaserScan  ros1  360 messages"), "{s}");
+    assert!(
+        s.contains("/scan  sensor_msgs/LaserScan  ros1  360 messages"),
+        "{s}"
+    );
     assert!(s.contains("681 beams over 239.4°"), "{s}");
     assert!(s.contains("range 0.02–5.6 m, 10.02 Hz"), "{s}");
     assert!(s.contains("odometry: none"), "{s}");
-    let out = polymap(&["info", dir.join("ros/rosbag2-conformance.db3").to_str().unwrap()]);
+    let out = polymap(&[
+        "info",
+        dir.join("ros/rosbag2-conformance.db3").to_str().unwrap(),
+    ]);
     let s = String::from_utf8(out.stdout).unwrap();
     assert!(s.contains("94 topics, 188 messages"), "{s}");
-    assert!(s.contains("odometry: /test/nav_msgs/odometry (2 messages)"), "{s}");
+    assert!(
+        s.contains("odometry: /test/nav_msgs/odometry (2 messages)"),
+        "{s}"
+    );
 }
 
 #[test]

@@ -82,11 +82,14 @@ pub(crate) fn folder_files(dir: &Path) -> Result<Vec<PathBuf>, RosError> {
     Ok(m.relative_file_paths.iter().map(|f| dir.join(f)).collect())
 }
 
+/// Opens the reader of one storage file.
+pub(crate) type OpenPart = Box<dyn FnMut(&Path) -> Result<Box<dyn MessageSource>, RosError> + Send>;
+
 /// Several storage files read as one: connections are merged by topic and type.
 pub(crate) struct Chain {
     parts: Vec<PathBuf>,
     next_part: usize,
-    open: Box<dyn FnMut(&Path) -> Result<Box<dyn MessageSource>, RosError> + Send>,
+    open: OpenPart,
     current: Option<Box<dyn MessageSource>>,
     /// For the current part: its connection index → ours.
     map: Vec<usize>,
@@ -96,10 +99,7 @@ pub(crate) struct Chain {
 }
 
 impl Chain {
-    pub(crate) fn new(
-        parts: Vec<PathBuf>,
-        open: Box<dyn FnMut(&Path) -> Result<Box<dyn MessageSource>, RosError> + Send>,
-    ) -> Result<Self, RosError> {
+    pub(crate) fn new(parts: Vec<PathBuf>, open: OpenPart) -> Result<Self, RosError> {
         let mut chain = Chain {
             parts,
             next_part: 0,

@@ -131,8 +131,8 @@ fn handle_record(
             None
         }
         Record::Channel(c) => {
-            if !channels.contains_key(&c.id) {
-                channels.insert(c.id, connections.len());
+            if let std::collections::hash_map::Entry::Vacant(e) = channels.entry(c.id) {
+                e.insert(connections.len());
                 connections.push(Connection {
                     topic: c.topic,
                     type_name: schemas.get(&c.schema_id).cloned().unwrap_or_default(),
