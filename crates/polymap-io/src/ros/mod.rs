@@ -7,7 +7,8 @@
 //! - [`ros1`]: bag format 2.0, chunks uncompressed, `bz2` or `lz4`, read in file order without
 //!   the index (which may be wrong); and a writer.
 //! - [`mcap_file`]: MCAP through the `mcap` crate's sans-I/O reader (chunks `zstd`/`lz4`); and
-//!   a writer.
+//!   a writer. [`mcap_indexed`]: the same through the summary, skipping chunks without the
+//!   topics asked for.
 //! - `sqlite` (feature `sqlite`, on by default): rosbag2 `.db3` files.
 //! - [`folder`]: rosbag2 folders (`metadata.yaml` and its storage files).
 //!
@@ -20,6 +21,7 @@
 pub mod error;
 pub mod folder;
 pub mod mcap_file;
+pub mod mcap_indexed;
 pub mod messages;
 pub mod record;
 pub mod ros1;
@@ -78,6 +80,24 @@ pub fn open_source(
             Ok(Box::new(folder::Chain::new(parts, Box::new(open))?))
         }
     }
+}
+
+/// Opens the reader of one container for the messages of `topics` only. Where the format
+/// allows (an MCAP file with chunk indexes), chunks holding none of them are skipped without
+/// being read; otherwise this is [`open_source`] (the caller filters).
+pub fn open_source_for_topics(
+    path: &Path,
+    format: RosFormat,
+    limits: ReadLimits,
+    skip_bad: bool,
+    topics: &[String],
+) -> Result<Box<dyn MessageSource>, RosError> {
+    if format == RosFormat::Mcap {
+        if let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, topics)? {
+            return Ok(Box::new(reader));
+        }
+    }
+    open_source(path, format, limits, skip_bad)
 }
 
 #[cfg(feature = "sqlite")]

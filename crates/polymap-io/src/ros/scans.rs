@@ -10,7 +10,7 @@ use super::error::{MessageProblem, RosError};
 use super::messages::{LaserScanMsg, OdometryMsg};
 use super::source::{Connection, MessageSource, ReadLimits};
 use super::survey::{TopicSummary, survey};
-use super::{RosFormat, open_source};
+use super::{RosFormat, open_source, open_source_for_topics};
 
 /// How many skipped-message errors are kept for the warning.
 const MAX_BAD_MESSAGES: usize = 10;
@@ -80,6 +80,9 @@ impl RosScanReader {
         options: &RosScanOptions,
     ) -> Result<Self, RosError> {
         let open = || open_source(path, format, options.limits, options.skip_bad);
+        let open_for = |topics: &[String]| {
+            open_source_for_topics(path, format, options.limits, options.skip_bad, topics)
+        };
         let needs_survey =
             options.topic.is_none() || (options.odometry && options.odom_topic.is_none());
         let topics = if needs_survey {
@@ -108,12 +111,13 @@ impl RosScanReader {
                     "--odom-topic",
                 )?,
             };
-            Some(OdomTrack::new(open()?, path, odom_topic, options.skip_bad))
+            let source = open_for(std::slice::from_ref(&odom_topic))?;
+            Some(OdomTrack::new(source, path, odom_topic, options.skip_bad))
         } else {
             None
         };
         Ok(RosScanReader {
-            source: open()?,
+            source: open_for(std::slice::from_ref(&topic))?,
             path: path.to_path_buf(),
             topic,
             index: 0,

@@ -102,6 +102,15 @@ fn the_conformance_mcap_holds_two_exact_laser_scans() {
         &msgs,
         [(1_749_315_324, 962_061_056), (1_749_315_325, 13_669_120)],
     );
+    // Through its chunk indexes (a topic given) too.
+    let options = LogOptions {
+        topic: Some("/test/sensor_msgs/laser_scan".into()),
+        ..LogOptions::default()
+    };
+    let mut log = LogSource::open(&path, &options).unwrap();
+    let first = log.next_scan().unwrap().unwrap();
+    assert_eq!(first.stamp.text, "1749315324.962061056");
+    assert!(log.next_scan().unwrap().is_some() && log.next_scan().unwrap().is_none());
     let mut source = open_source(&path, RosFormat::Mcap, ReadLimits::default(), false).unwrap();
     let topics = survey(source.as_mut()).unwrap();
     assert_eq!(topics.len(), 94);

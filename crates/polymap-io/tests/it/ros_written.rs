@@ -316,3 +316,54 @@ fn big_endian_cdr_decodes_like_little_endian() {
     assert_eq!(le, be);
     assert_eq!(le, msg);
 }
+
+/// A camera topic of 300 KB images with a sparse laser: the chunks holding only images are
+/// neither read nor decompressed when the laser topic is asked for.
+#[test]
+fn mcap_chunks_without_the_laser_topic_are_skipped() {
+    use polymap_io::ros::mcap_file::McapWriter;
+    use polymap_io::ros::mcap_indexed::McapIndexedReader;
+    use polymap_io::ros::{MessageSource, ReadLimits};
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("camera.mcap");
+    let mut w = McapWriter::create(&path, McapCompression::Zstd).unwrap();
+    let camera = w.add_channel("/camera", "sensor_msgs/msg/Image").unwrap();
+    let laser = w.add_channel("/scan", "sensor_msgs/msg/LaserScan").unwrap();
+    let scan = &scans(1)[0];
+    let image: Vec<u8> = (0..300_000u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+        .collect();
+    for k in 0..100u32 {
+        let t = RosTime {
+            sec: 100,
+            nanosec: k * 1_000_000,
+        };
+        w.write(camera, t, &image).unwrap();
+        if k % 10 == 9 {
+            let msg = LaserScanMsg::from_range_scan(scan, t, "laser");
+            w.write(laser, t, &msg.encode(Flavor::CdrLittle, 0))
+                .unwrap();
+        }
+    }
+    w.finish().unwrap();
+    let size = std::fs::metadata(&path).unwrap().len();
+    let mut r = McapIndexedReader::open(&path, ReadLimits::default(), &["/scan".to_string()])
+        .unwrap()
+        .expect("an indexed file");
+    let mut n = 0;
+    while r.advance().unwrap() {
+        assert_eq!(r.connections()[r.current().connection].topic, "/scan");
+        n += 1;
+    }
+    assert_eq!(n, 10);
+    assert!(
+        r.position() * 5 < size,
+        "read {} of {size} bytes",
+        r.position()
+    );
+    let options = LogOptions {
+        topic: Some("/scan".into()),
+        ..LogOptions::default()
+    };
+    assert_eq!(read_all(&path, &options).unwrap().len(), 10);
+}
