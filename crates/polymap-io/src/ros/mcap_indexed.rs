@@ -11,8 +11,11 @@ use mcap::sans_io::indexed_reader::{
 };
 use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
 
+use mcap::Summary;
+
 use super::error::RosError;
 use super::source::{Connection, Encoding, MessageSource, Place, RawMessage, ReadLimits};
+use super::survey::TopicSummary;
 
 /// Reads the messages of some topics of an indexed MCAP file, skipping every chunk that holds
 /// none of them without reading or decompressing it.
@@ -39,51 +42,15 @@ impl McapIndexedReader {
         limits: ReadLimits,
         topics: &[String],
     ) -> Result<Option<Self>, RosError> {
-        let mut file = File::open(path).map_err(|e| RosError::io(path, e))?;
-        let size = file.metadata().map_err(|e| RosError::io(path, e))?.len();
-        let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
-        let options = SummaryReaderOptions::default()
-            .with_file_size(size)
-            .with_record_length_limit(limit);
-        let mut summary_reader = SummaryReader::new_with_options(options);
-        while let Some(event) = summary_reader.next_event() {
-            let event =
-                event.map_err(|e| RosError::container(path, size, format!("summary: {e}")))?;
-            match event {
-                SummaryReadEvent::ReadRequest(n) => {
-                    let buf = summary_reader.insert(n.min(limit));
-                    let read = file.read(buf).map_err(|e| RosError::io(path, e))?;
-                    summary_reader.notify_read(read);
-                }
-                SummaryReadEvent::SeekRequest(to) => {
-                    let at = file.seek(to).map_err(|e| RosError::io(path, e))?;
-                    summary_reader.notify_seeked(at);
-                }
-            }
-        }
-        let Some(summary) = summary_reader.finish() else {
+        let Some((summary, file)) = read_summary(path, limits)? else {
             return Ok(None);
         };
+        let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
         if summary.chunk_indexes.is_empty() {
             return Ok(None);
         }
-        let mut ids: Vec<u16> = summary.channels.keys().copied().collect();
-        ids.sort_unstable();
-        let mut connections = Vec::new();
-        let mut channels = HashMap::new();
-        for id in ids {
-            let c = &summary.channels[&id];
-            channels.insert(id, connections.len());
-            connections.push(Connection {
-                topic: c.topic.clone(),
-                type_name: c
-                    .schema
-                    .as_ref()
-                    .map(|s| s.name.clone())
-                    .unwrap_or_default(),
-                encoding: Encoding::from_name(&c.message_encoding),
-            });
-        }
+        let (ids, connections) = summary_connections(&summary);
+        let channels = ids.iter().enumerate().map(|(i, &id)| (id, i)).collect();
         let options = IndexedReaderOptions::new()
             .with_order(ReadOrder::File)
             .include_topics(topics.to_vec())
@@ -134,6 +101,88 @@ impl McapIndexedReader {
             .insert_chunk_record_data(offset, &self.chunk)
             .map_err(|e| RosError::container(&self.path, offset, format!("bad chunk: {e}")))
     }
+}
+
+/// Reads an MCAP file's summary section; `None` when it has none or it cannot be read. Returns
+/// the open file too.
+fn read_summary(path: &Path, limits: ReadLimits) -> Result<Option<(Summary, File)>, RosError> {
+    let mut file = File::open(path).map_err(|e| RosError::io(path, e))?;
+    let size = file.metadata().map_err(|e| RosError::io(path, e))?.len();
+    let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
+    let options = SummaryReaderOptions::default()
+        .with_file_size(size)
+        .with_record_length_limit(limit);
+    let mut reader = SummaryReader::new_with_options(options);
+    while let Some(event) = reader.next_event() {
+        // A damaged or missing summary (an unfinished recording): the linear reader takes over.
+        let Ok(event) = event else {
+            return Ok(None);
+        };
+        match event {
+            SummaryReadEvent::ReadRequest(n) => {
+                let buf = reader.insert(n.min(limit));
+                let read = file.read(buf).map_err(|e| RosError::io(path, e))?;
+                reader.notify_read(read);
+            }
+            SummaryReadEvent::SeekRequest(to) => {
+                let at = file.seek(to).map_err(|e| RosError::io(path, e))?;
+                reader.notify_seeked(at);
+            }
+        }
+    }
+    Ok(reader.finish().map(|summary| (summary, file)))
+}
+
+/// The summary's channels in id order, as connections.
+fn summary_connections(summary: &Summary) -> (Vec<u16>, Vec<Connection>) {
+    let mut ids: Vec<u16> = summary.channels.keys().copied().collect();
+    ids.sort_unstable();
+    let connections = ids
+        .iter()
+        .map(|id| {
+            let c = &summary.channels[id];
+            Connection {
+                topic: c.topic.clone(),
+                type_name: c
+                    .schema
+                    .as_ref()
+                    .map(|s| s.name.clone())
+                    .unwrap_or_default(),
+                encoding: Encoding::from_name(&c.message_encoding),
+            }
+        })
+        .collect();
+    (ids, connections)
+}
+
+/// The topics and their message counts from the summary's statistics, without reading the
+/// data; `None` when the file has no summary or no per-channel counts.
+pub fn summary_topics(
+    path: &Path,
+    limits: ReadLimits,
+) -> Result<Option<Vec<TopicSummary>>, RosError> {
+    let Some((summary, _)) = read_summary(path, limits)? else {
+        return Ok(None);
+    };
+    let Some(stats) = &summary.stats else {
+        return Ok(None);
+    };
+    if stats.channel_message_counts.is_empty() && stats.message_count > 0 {
+        return Ok(None);
+    }
+    let (ids, connections) = summary_connections(&summary);
+    Ok(Some(
+        ids.iter()
+            .zip(connections)
+            .map(|(id, connection)| TopicSummary {
+                connection,
+                messages: stats.channel_message_counts.get(id).copied().unwrap_or(0),
+                span_ns: None,
+                stamps: None,
+                laser: None,
+            })
+            .collect(),
+    ))
 }
 
 impl MessageSource for McapIndexedReader {

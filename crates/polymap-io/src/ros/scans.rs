@@ -7,6 +7,7 @@ use polymap::geometry::Pose2;
 use polymap::scan::RangeScan;
 
 use super::error::{MessageProblem, RosError};
+use super::mcap_indexed::summary_topics;
 use super::messages::{LaserScanMsg, OdometryMsg};
 use super::source::{Connection, MessageSource, ReadLimits};
 use super::survey::{TopicSummary, survey};
@@ -56,8 +57,9 @@ pub struct RosStats {
 /// Streams the scans of one `LaserScan` topic in file order.
 ///
 /// Without [`RosScanOptions::topic`] (or, with odometry, without
-/// [`RosScanOptions::odom_topic`]) the file is surveyed first (one pass counting messages per
-/// topic) to find the only topic of the type; several are an error that lists them.
+/// [`RosScanOptions::odom_topic`]) the file is surveyed first to find the only topic of the
+/// type (several are an error that lists them): from an MCAP file's summary statistics when it
+/// has them, otherwise by one pass counting messages per topic.
 ///
 /// Odometry is read by a second reader over the same file, moving forward in step with the
 /// scans: memory stays bounded and each scan's pose is interpolated between the odometry
@@ -85,10 +87,14 @@ impl RosScanReader {
         };
         let needs_survey =
             options.topic.is_none() || (options.odometry && options.odom_topic.is_none());
-        let topics = if needs_survey {
-            survey(open()?.as_mut())?
-        } else {
-            Vec::new()
+        let topics = match (needs_survey, format) {
+            (false, _) => Vec::new(),
+            // An MCAP summary counts the messages per channel: no pass over the data.
+            (true, RosFormat::Mcap) => match summary_topics(path, options.limits)? {
+                Some(topics) => topics,
+                None => survey(open()?.as_mut())?,
+            },
+            (true, _) => survey(open()?.as_mut())?,
         };
         let topic = match &options.topic {
             Some(t) => t.clone(),

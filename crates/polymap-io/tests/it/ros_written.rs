@@ -367,3 +367,37 @@ fn mcap_chunks_without_the_laser_topic_are_skipped() {
     };
     assert_eq!(read_all(&path, &options).unwrap().len(), 10);
 }
+
+/// Topic choice in an MCAP file comes from its summary's counts (no pass over the data).
+#[test]
+fn several_laser_topics_in_mcap_are_listed_from_the_summary() {
+    use polymap_io::ros::ReadLimits;
+    use polymap_io::ros::mcap_file::McapWriter;
+    use polymap_io::ros::mcap_indexed::summary_topics;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("two.mcap");
+    let mut w = McapWriter::create(&path, McapCompression::Lz4).unwrap();
+    let front = w
+        .add_channel("/front", "sensor_msgs/msg/LaserScan")
+        .unwrap();
+    let rear = w.add_channel("/rear", "sensor_msgs/msg/LaserScan").unwrap();
+    let scan = &scans(1)[0];
+    for k in 0..7u32 {
+        let t = RosTime { sec: 3, nanosec: k };
+        let data = LaserScanMsg::from_range_scan(scan, t, "laser").encode(Flavor::CdrLittle, 0);
+        w.write(if k < 4 { front } else { rear }, t, &data).unwrap();
+    }
+    w.finish().unwrap();
+    let topics = summary_topics(&path, ReadLimits::default())
+        .unwrap()
+        .unwrap();
+    let counts: Vec<(&str, u64)> = topics
+        .iter()
+        .map(|t| (t.connection.topic.as_str(), t.messages))
+        .collect();
+    assert_eq!(counts, [("/front", 4), ("/rear", 3)]);
+    let e = read_all(&path, &LogOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("/front (4 messages), /rear (3 messages)"), "{e}");
+}
