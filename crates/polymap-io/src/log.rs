@@ -10,16 +10,13 @@
 //! ```
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::{BufReader, Read};
-use std::path::Path;
-use std::sync::Arc;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::{Path, PathBuf};
 
 use polymap::scan::RangeScan;
 
-use crate::carmen::{CarmenError, CarmenReader, ReaderOptions};
+use crate::carmen::{CarmenError, CarmenStats, ReaderOptions};
 use crate::ros::{RosError, RosFormat, RosScanOptions, RosScanReader, sniff};
+use crate::source::{self, ScanSource};
 
 /// The kinds of log polymap reads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -32,8 +29,12 @@ pub enum LogKind {
 
 impl LogKind {
     /// Tells the kind of `path` by its content (a folder with `metadata.yaml` is a rosbag2
-    /// folder; bag, MCAP and SQLite files by their magic bytes; anything else is CARMEN).
+    /// folder; bag, MCAP and SQLite files by their magic bytes; anything else, and standard
+    /// input `-`, is CARMEN, which [`source::open_log`] reads plain or compressed).
     pub fn of(path: &Path) -> Result<Self, LogError> {
+        if path.as_os_str() == "-" {
+            return Ok(LogKind::Carmen);
+        }
         Ok(match sniff(path)? {
             Some(f) => LogKind::Ros(f),
             None if path.is_dir() => {
@@ -116,42 +117,29 @@ pub struct LogStats {
 }
 
 enum Inner {
-    Carmen(Box<CarmenReader<BufReader<CountingReader<File>>>>),
+    Carmen(Box<source::LogSource>),
     Ros(Box<RosScanReader>),
 }
 
-/// A log of any kind, read scan by scan in file order.
+/// A log of any kind, read scan by scan in file order; a [`ScanSource`] for the pipeline.
 pub struct LogSource {
     kind: LogKind,
     inner: Inner,
-    bytes_read_shared: Arc<AtomicU64>,
-    size: u64,
+    path: PathBuf,
+    size: Option<u64>,
 }
 
 impl LogSource {
-    /// Opens a log, telling its kind by content.
+    /// Opens a log, telling its kind by content (`-` is standard input, read as CARMEN).
     pub fn open(path: &Path, options: &LogOptions) -> Result<Self, LogError> {
         let kind = LogKind::of(path)?;
-        let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
-        let bytes_read_shared = Arc::new(AtomicU64::new(0));
         let inner = match kind {
             LogKind::Carmen => {
-                let file = File::open(path).map_err(|source| CarmenError::Io {
-                    path: path.to_path_buf(),
-                    source,
-                })?;
-                let input = BufReader::with_capacity(
-                    1 << 16,
-                    CountingReader {
-                        inner: file,
-                        count: Arc::clone(&bytes_read_shared),
-                    },
-                );
                 let carmen = ReaderOptions {
                     skip_bad_lines: options.skip_bad_input,
                     ..options.carmen.clone()
                 };
-                Inner::Carmen(Box::new(CarmenReader::from_reader(input, path, carmen)))
+                Inner::Carmen(Box::new(source::open_log(path, carmen)?))
             }
             LogKind::Ros(format) => {
                 let ros = RosScanOptions {
@@ -164,10 +152,17 @@ impl LogSource {
                 Inner::Ros(Box::new(RosScanReader::open(path, format, &ros)?))
             }
         };
+        let size = match &inner {
+            Inner::Carmen(c) => c.size_bytes(),
+            Inner::Ros(_) => std::fs::metadata(path)
+                .ok()
+                .filter(|m| m.is_file())
+                .map(|m| m.len()),
+        };
         Ok(LogSource {
             kind,
             inner,
-            bytes_read_shared,
+            path: path.to_path_buf(),
             size,
         })
     }
@@ -177,31 +172,36 @@ impl LogSource {
         self.kind
     }
 
-    /// The file's size in bytes (0 for a folder or a stream).
-    pub fn size(&self) -> u64 {
+    /// The name used in messages (`<stdin>` for standard input).
+    pub fn path(&self) -> &Path {
+        match &self.inner {
+            Inner::Carmen(c) => c.path(),
+            Inner::Ros(_) => &self.path,
+        }
+    }
+
+    /// The file's size in bytes; `None` for a stream or a folder.
+    pub fn size_bytes(&self) -> Option<u64> {
         self.size
     }
 
-    /// A counter of the bytes read so far, updated as scans are read (for a progress bar
-    /// on another thread).
-    pub fn bytes_read(&self) -> Arc<AtomicU64> {
-        Arc::clone(&self.bytes_read_shared)
+    /// True for a log that can be read again (a regular file or a rosbag2 folder).
+    pub fn is_regular_file(&self) -> bool {
+        match &self.inner {
+            Inner::Carmen(c) => c.is_regular_file(),
+            Inner::Ros(_) => true,
+        }
     }
 
     /// The next scan in file order, `Ok(None)` at the end.
     pub fn next_scan(&mut self) -> Result<Option<RangeScan>, LogError> {
         match &mut self.inner {
-            Inner::Carmen(r) => Ok(r.next_scan()?),
-            Inner::Ros(r) => {
-                let scan = r.next_scan()?;
-                self.bytes_read_shared
-                    .store(r.position(), Ordering::Relaxed);
-                Ok(scan)
-            }
+            Inner::Carmen(r) => Ok(ScanSource::next_scan(r.as_mut())?),
+            Inner::Ros(r) => Ok(r.next_scan()?),
         }
     }
 
-    /// What has been read so far.
+    /// What has been read so far, in the same terms for every format.
     pub fn stats(&self) -> LogStats {
         match &self.inner {
             Inner::Carmen(r) => {
@@ -238,18 +238,42 @@ impl LogSource {
             }
         }
     }
+
+    /// The counts in the CARMEN reader's terms, for reporting code written for it: a ROS
+    /// recording's messages count as lines, its other topics as skipped types, its bad
+    /// messages and chunks as bad lines.
+    pub fn carmen_stats(&self) -> CarmenStats {
+        match &self.inner {
+            Inner::Carmen(r) => r.stats().clone(),
+            Inner::Ros(_) => {
+                let s = self.stats();
+                CarmenStats {
+                    lines: s.records,
+                    scans: s.scans,
+                    odometry_messages: s.odometry_messages,
+                    skipped_types: s.skipped,
+                    bad_lines: s.bad_records,
+                    bad_line_messages: s.bad_record_errors,
+                    no_return_readings: s.no_return_readings,
+                    valid_readings: s.valid_readings,
+                    ..CarmenStats::default()
+                }
+            }
+        }
+    }
 }
 
-/// Counts the bytes read through it.
-struct CountingReader<R> {
-    inner: R,
-    count: Arc<AtomicU64>,
-}
+impl ScanSource for LogSource {
+    type Error = LogError;
 
-impl<R: Read> Read for CountingReader<R> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let n = self.inner.read(buf)?;
-        self.count.fetch_add(n as u64, Ordering::Relaxed);
-        Ok(n)
+    fn next_scan(&mut self) -> Result<Option<RangeScan>, LogError> {
+        LogSource::next_scan(self)
+    }
+
+    fn bytes_read(&self) -> u64 {
+        match &self.inner {
+            Inner::Carmen(c) => c.bytes_read(),
+            Inner::Ros(r) => r.position(),
+        }
     }
 }
