@@ -14,9 +14,13 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Map a CARMEN log (or, without LOG, the built-in simulated 45° hallway).
+    /// Map a log — CARMEN (.clf), ROS 1 bag, MCAP, rosbag2 (.db3 or folder) — or, without
+    /// LOG, the built-in simulated 45° hallway.
     Map(MapArgs),
-    /// Simulate a world: a CARMEN log plus its ground truth (trajectory and walls).
+    /// Say what a log holds: topics, types, counts, time span, the laser's geometry and rate.
+    Info(InfoArgs),
+    /// Simulate a world: a CARMEN log (and, with --ros, an MCAP file and a ROS 1 bag) plus its
+    /// ground truth (trajectory and walls).
     Simulate(SimulateArgs),
     /// Measure a trajectory or a map against ground truth or the log.
     Eval(EvalArgs),
@@ -37,8 +41,8 @@ pub struct ExportArgs {
     /// The log the run mapped, for the grid's free space (default: the one in summary.json).
     #[arg(long)]
     pub log: Option<PathBuf>,
-    /// Skip malformed log lines when re-reading the log.
-    #[arg(long)]
+    /// Skip malformed log lines or undecodable messages when re-reading the log.
+    #[arg(long = "skip-bad-input", visible_alias = "skip-bad-lines")]
     pub skip_bad_lines: bool,
 }
 
@@ -103,13 +107,35 @@ pub struct SimulateArgs {
     /// List the worlds and exit.
     #[arg(long)]
     pub list: bool,
+    /// Also write the world as ROS recordings: NAME.mcap (ROS 2, zstd chunks) and NAME.bag
+    /// (ROS 1, lz4 chunks), with the laser on /scan and odometry on /odom.
+    #[arg(long)]
+    pub ros: bool,
+    /// The laser's field of view, degrees (one beam per degree, centred ahead; e.g. 180, 270,
+    /// 360), instead of the world's own laser.
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=360))]
+    pub fov_deg: Option<u16>,
+}
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// The log: CARMEN (.clf), ROS 1 bag, MCAP, rosbag2 .db3 or folder.
+    pub log: PathBuf,
 }
 
 #[derive(Debug, Args)]
 pub struct MapArgs {
-    /// The CARMEN log (.clf, or compressed .gz/.bz2) to map; `-` reads standard input. Without
-    /// it, the built-in `hallway45` world is simulated and mapped.
+    /// The log to map: CARMEN (.clf, or compressed .gz/.bz2; `-` reads standard input), ROS 1
+    /// bag (.bag), MCAP (.mcap), rosbag2 sqlite3 (.db3) or rosbag2 folder (with
+    /// metadata.yaml); told by content. Without it, the built-in `hallway45` world is
+    /// simulated and mapped.
     pub log: Option<PathBuf>,
+    /// ROS: the sensor_msgs/LaserScan topic (default: the only one in the file).
+    #[arg(long)]
+    pub topic: Option<String>,
+    /// ROS with --odometry: the nav_msgs/Odometry topic (default: the only one in the file).
+    #[arg(long)]
+    pub odom_topic: Option<String>,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "out")]
     pub output: PathBuf,
@@ -121,11 +147,13 @@ pub struct MapArgs {
     #[arg(long, default_value = "default")]
     pub preset: String,
     /// Start each ICP from the log's odometry increment (map in odometry's frame); also runs ICP
-    /// from every start and keeps the most inliers, which measured best with odometry.
+    /// from every start and keeps the most inliers, which measured best with odometry. ROS:
+    /// odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp.
     #[arg(long)]
     pub odometry: bool,
-    /// Skip malformed log lines (counted and reported) instead of stopping at the first.
-    #[arg(long)]
+    /// Skip bad input — malformed log lines, undecodable messages, corrupt chunks — (counted
+    /// and reported) instead of stopping at the first.
+    #[arg(long = "skip-bad-input", visible_alias = "skip-bad-lines")]
     pub skip_bad_lines: bool,
     /// Print the effective configuration as TOML and exit.
     #[arg(long)]

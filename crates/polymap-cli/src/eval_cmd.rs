@@ -11,9 +11,8 @@ use polymap_eval::map_quality::{
 use polymap_eval::relation_error::{RelationParams, evaluate_relations};
 use polymap_eval::relations::read_relations;
 use polymap_eval::trajectory::{TrajectoryParams, evaluate_trajectory};
-use polymap_io::carmen::ReaderOptions;
+use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::map_json::read_map_json;
-use polymap_io::source::{ScanSource, open_log};
 use polymap_io::tum::read_tum;
 use serde_json::json;
 
@@ -219,9 +218,10 @@ fn matching_scans<'a>(
     Ok(&scans[..trajectory.len()])
 }
 
-/// Every scan of the log (plain, gzip or bzip2; `-` is standard input).
+/// Every scan of the log (CARMEN plain, gzip or bzip2, `-` for standard input; or a ROS
+/// recording).
 fn read_scans(log: &Path) -> Result<Vec<RangeScan>> {
-    let mut reader = open_log(log, ReaderOptions::default())?;
+    let mut reader = LogSource::open(log, &LogOptions::default())?;
     let mut scans = Vec::new();
     while let Some(s) = reader.next_scan()? {
         scans.push(s);

@@ -5,10 +5,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use polymap_export::formats::{ExportInput, Format, export};
 use polymap_export::report::ReportData;
-use polymap_io::carmen::ReaderOptions;
+use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::map_json::read_map_json;
 use polymap_io::snapshot::{MapSnapshot, ScanPoints};
-use polymap_io::source::{ScanSource, open_log};
 use polymap_io::tum::read_tum;
 use polymap_pipeline::pipeline::reread_scan_points;
 
@@ -47,11 +46,11 @@ fn rays(a: &ExportArgs, snapshot: &MapSnapshot) -> Result<ScanPoints> {
         Some(l) => l.clone(),
         None => logged_path(&a.run)?,
     };
-    let options = ReaderOptions {
-        skip_bad_lines: a.skip_bad_lines,
-        ..ReaderOptions::default()
+    let options = LogOptions {
+        skip_bad_input: a.skip_bad_lines,
+        ..LogOptions::default()
     };
-    let mut source = open_log(&log, options)?;
+    let mut source = LogSource::open(&log, &options)?;
     if !source.is_regular_file() {
         bail!(
             "{}: not a file that can be read again (standard input, a pipe or a device): \

@@ -1,4 +1,4 @@
-//! `polymap`: map a laser log (or a simulated world) into a few polylines and a trajectory,
+//! `polymap`: map a laser log (CARMEN or ROS) or a simulated world into a few polylines and a trajectory,
 //! simulate worlds, and evaluate results. Thin: argument parsing, progress, and calls into the
 //! library crates.
 
@@ -23,6 +23,7 @@ mod args;
 mod config_file;
 mod eval_cmd;
 mod export_cmd;
+mod info_cmd;
 mod interrupt;
 mod map_cmd;
 mod outputs;
@@ -38,6 +39,7 @@ fn main() -> ExitCode {
     let cli = args::Cli::parse();
     let result = match cli.command {
         args::Command::Map(a) => map_cmd::run(&a),
+        args::Command::Info(a) => info_cmd::run(&a),
         args::Command::Simulate(a) => sim_cmd::run(&a),
         args::Command::Eval(a) => eval_cmd::run(&a),
         args::Command::Export(a) => export_cmd::run(&a),

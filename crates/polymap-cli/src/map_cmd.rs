@@ -10,10 +10,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use polymap::config::Config;
 use polymap::mapper::MotionPrior;
 use polymap_export::formats::Format;
-use polymap_io::carmen::{CarmenStats, ReaderOptions};
+use polymap_io::carmen::CarmenStats;
+use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
-use polymap_io::source::{LogSource, open_log};
 use polymap_pipeline::folder::{
     DIAGNOSTICS_FILE, RunFiles, RunFolder, percentiles_ms, summary_json,
 };
@@ -48,11 +48,15 @@ pub fn run(a: &MapArgs) -> Result<()> {
         Some(p) => p.clone(),
         None => simulated_log(&a.output)?,
     };
-    let options = ReaderOptions {
-        skip_bad_lines: a.skip_bad_lines,
-        ..ReaderOptions::default()
+    // Any kind of log: CARMEN (plain, compressed, standard input) or a ROS recording.
+    let options = LogOptions {
+        skip_bad_input: a.skip_bad_lines,
+        topic: a.topic.clone(),
+        odometry: a.odometry,
+        odom_topic: a.odom_topic.clone(),
+        ..LogOptions::default()
     };
-    let source = open_log(&log, options)?;
+    let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
     let (record, stats) = map_source(source, &config, a, &folder, stop)?;
@@ -171,7 +175,7 @@ fn map_source(
     if let Some(w) = diag {
         w.finish()?;
     }
-    let stats = outcome.source.map(|s| s.stats().clone());
+    let stats = outcome.source.map(|s| s.carmen_stats());
     Ok((outcome.record, stats))
 }
 

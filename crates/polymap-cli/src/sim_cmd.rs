@@ -6,8 +6,11 @@ use anyhow::{Context, Result, anyhow};
 use polymap::map::MapSegment;
 use polymap_io::carmen::write_flaser_log;
 use polymap_io::map_json::{FRAME_FIRST_SCAN, MapJson, write_map_json};
+use polymap_io::ros::mcap_file::McapCompression;
+use polymap_io::ros::ros1::BagCompression;
+use polymap_io::ros::{float32_scan, write_bag, write_mcap};
 use polymap_io::tum::{StampedPose, write_tum};
-use polymap_sim::{SimRun, World, simulate, world_by_name};
+use polymap_sim::{LaserParams, SimRun, World, simulate, world_by_name};
 use serde_json::json;
 
 use crate::args::SimulateArgs;
@@ -18,6 +21,18 @@ pub struct SimFiles {
     pub log: PathBuf,
     pub truth: PathBuf,
     pub walls: PathBuf,
+    /// With [`SimOutput::ros`]: the MCAP file and the ROS 1 bag.
+    pub ros: Option<(PathBuf, PathBuf)>,
+}
+
+/// What `polymap simulate` writes besides the CARMEN log.
+#[derive(Debug, Clone, Copy)]
+pub struct SimOutput {
+    /// Also write NAME.mcap and NAME.bag. The scans are then rounded to `float32` (as a ROS
+    /// message holds them) in every file, so that all three read back to the same scans.
+    pub ros: bool,
+    /// The laser's field of view, degrees (one beam per degree); `None`: the world's own laser.
+    pub fov_deg: Option<u16>,
 }
 
 pub fn run(a: &SimulateArgs) -> Result<()> {
@@ -31,30 +46,68 @@ pub fn run(a: &SimulateArgs) -> Result<()> {
         .world
         .as_deref()
         .ok_or_else(|| anyhow!("name a world (see --list)"))?;
-    let files = simulate_to(name, &a.output, a.seed)?;
+    let output = SimOutput {
+        ros: a.ros,
+        fov_deg: a.fov_deg,
+    };
+    let files = simulate_with(name, &a.output, a.seed, output)?;
     say!(
         "wrote {}, {} and {}",
         files.log.display(),
         files.truth.display(),
         files.walls.display()
     );
+    if let Some((mcap, bag)) = &files.ros {
+        say!("wrote {} and {}", mcap.display(), bag.display());
+    }
     Ok(())
 }
 
-/// Simulates world `name` into `dir`: `NAME.clf`, `NAME.truth.tum` (true poses in the first
+/// Simulates world `name` (180° laser) into `dir`: `NAME.clf`, `NAME.truth.tum` (true poses in the first
 /// scan's frame), `NAME.walls.json` (true walls, same frame) and `NAME.sim.json`.
 pub fn simulate_to(name: &str, dir: &Path, seed: u64) -> Result<SimFiles> {
+    let output = SimOutput {
+        ros: false,
+        fov_deg: None,
+    };
+    simulate_with(name, dir, seed, output)
+}
+
+/// [`simulate_to`] with, if asked, a laser of `output.fov_deg` degrees and, with `output.ros`, the world
+/// also as `NAME.mcap` (zstd chunks) and `NAME.bag` (lz4 chunks).
+pub fn simulate_with(name: &str, dir: &Path, seed: u64, output: SimOutput) -> Result<SimFiles> {
     let names: Vec<String> = World::catalogue().into_iter().map(|w| w.name).collect();
     let world = world_by_name(name)
         .ok_or_else(|| anyhow!("unknown world {name:?}; known: {}", names.join(", ")))?;
-    let run = simulate(&world, &world.sim_params(), seed);
+    let mut params = world.sim_params();
+    if let Some(fov_deg) = output.fov_deg {
+        // The world's laser (range, noise, mounting) with the field of view asked for.
+        let geometry = LaserParams::one_beam_per_degree(fov_deg);
+        params.laser.num_beams = geometry.num_beams;
+        params.laser.fov_rad = geometry.fov_rad;
+        params.laser.angle_min_rad = geometry.angle_min_rad;
+    }
+    let mut run = simulate(&world, &params, seed);
+    if output.ros {
+        run.scans = run.scans.iter().map(float32_scan).collect();
+    }
     std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create", dir.display()))?;
     let files = SimFiles {
         log: dir.join(format!("{name}.clf")),
         truth: dir.join(format!("{name}.truth.tum")),
         walls: dir.join(format!("{name}.walls.json")),
+        ros: output.ros.then(|| {
+            (
+                dir.join(format!("{name}.mcap")),
+                dir.join(format!("{name}.bag")),
+            )
+        }),
     };
     write_flaser_log(&files.log, &run.scans)?;
+    if let Some((mcap, bag)) = &files.ros {
+        write_mcap(mcap, &run.scans, McapCompression::Zstd)?;
+        write_bag(bag, &run.scans, BagCompression::Lz4)?;
+    }
     write_tum(&files.truth, &truth_trajectory(&run))?;
     let walls: Vec<MapSegment> = run
         .walls_in_first_frame()

@@ -10,6 +10,12 @@
 //! - [`source`]: the [`ScanSource`](source::ScanSource) trait the mapping pipeline reads, and
 //!   [`open_log`](source::open_log) (files or standard input, gzip and bzip2 read directly).
 //!
+//! - [`ros`]: ROS recordings — ROS 1 bags, ROS 2 MCAP files, rosbag2 sqlite3 files and
+//!   folders — read without ROS (`LaserScan` and `Odometry` decoded by hand), and writers of
+//!   bags and MCAP files.
+//! - [`log`]: the one entry point, [`log::LogSource`], that tells a log's kind by its content
+//!   and yields its scans whatever the format.
+//!
 //! Writers (results out, see "Contracts other tools rely on" in `ARCHITECTURE.md`):
 //!
 //! - [`tum`]: trajectories in the TUM format (`stamp x y z qx qy qz qw`), and a reader.
@@ -26,8 +32,10 @@
 
 pub mod atomic;
 pub mod carmen;
+pub mod log;
 pub mod map_json;
 pub mod printable;
+pub mod ros;
 pub mod snapshot;
 pub mod source;
 pub mod tum;

@@ -321,6 +321,7 @@ fn prepare(scan: RangeScan, config: &Config, keep: bool, read: Duration, bytes: 
         config,
         points,
         scan.angle_increment_rad,
+        scan.is_full_circle(),
         scan.odom_from_robot,
     );
     prepared.extract_s = clock.elapsed().as_secs_f64();

@@ -74,6 +74,27 @@ impl LaserParams {
         }
     }
 
+    /// A scanner of `fov_deg` degrees with one beam per degree, centred ahead (the first beam
+    /// at −fov/2), otherwise the defaults: 180 is the default SICK, 270 a Hokuyo-like
+    /// scanner, 360 [`full_circle`](Self::full_circle).
+    ///
+    /// ```
+    /// use polymap_sim::LaserParams;
+    /// let l = LaserParams::one_beam_per_degree(270);
+    /// assert_eq!(l.num_beams, 270);
+    /// assert!((l.angle_min_rad.to_degrees() + 135.0).abs() < 1e-9);
+    /// assert_eq!(LaserParams::one_beam_per_degree(360), LaserParams::full_circle());
+    /// ```
+    pub fn one_beam_per_degree(fov_deg: u16) -> Self {
+        let fov_rad = f64::from(fov_deg).to_radians();
+        LaserParams {
+            num_beams: usize::from(fov_deg),
+            fov_rad,
+            angle_min_rad: -fov_rad / 2.0,
+            ..LaserParams::default()
+        }
+    }
+
     /// Bearing step between consecutive beams, radians: `fov_rad / num_beams`.
     pub fn angle_increment_rad(&self) -> f64 {
         self.fov_rad / self.num_beams.max(1) as f64

@@ -58,6 +58,30 @@ impl RangeScan {
         r.is_finite() && r > 0.0 && r < self.max_range_m
     }
 
+    /// True when the beams go all the way round (`n · |angle_increment| ≥ 2π` to half a step):
+    /// the last beam then neighbours the first, and the scan is one closed curve.
+    ///
+    /// ```
+    /// use polymap::scan::{RangeScan, Stamp};
+    /// use polymap::geometry::Pose2;
+    /// let mut scan = RangeScan {
+    ///     stamp: Stamp::from_seconds(0.0),
+    ///     ranges_m: vec![1.0; 360],
+    ///     angle_min_rad: -std::f64::consts::PI,
+    ///     angle_increment_rad: 1f64.to_radians(),
+    ///     max_range_m: 10.0,
+    ///     robot_from_laser: Pose2::IDENTITY,
+    ///     odom_from_robot: None,
+    /// };
+    /// assert!(scan.is_full_circle());
+    /// scan.ranges_m.truncate(270);
+    /// assert!(!scan.is_full_circle());
+    /// ```
+    pub fn is_full_circle(&self) -> bool {
+        let step = self.angle_increment_rad.abs();
+        step > 0.0 && (self.ranges_m.len() as f64 + 0.5) * step >= std::f64::consts::TAU
+    }
+
     /// Number of valid returns.
     pub fn valid_count(&self) -> usize {
         self.ranges_m

@@ -180,7 +180,12 @@ pub(crate) fn parse_robotlaser(
         angle_min_rad: config.start_angle_rad,
         angle_increment_rad: config.angular_resolution_rad,
         max_range_m: config.maximum_range_m,
-        robot_from_laser: odom_from_robot.between(&odom_from_laser),
+        // Equal poses mean the identity mount exactly (`between` would leave rounding residue).
+        robot_from_laser: if odom_from_laser == odom_from_robot {
+            Pose2::IDENTITY
+        } else {
+            odom_from_robot.between(&odom_from_laser)
+        },
         odom_from_robot: Some(odom_from_robot),
     };
     Ok((scan, fov_mismatch(&config, n)))

@@ -26,8 +26,8 @@ const BEARING_TOLERANCE_RAD: f64 = 1e-12;
 ///
 /// Poses: the robot pose triple is `odom_from_robot` and the laser triple is
 /// `odom_from_robot ∘ robot_from_laser` (6 decimals); a scan without odometry gets the identity
-/// as robot pose. Ranges: 3 decimals (a valid reading that would round up to the maximum range
-/// is written in full). Stamps: [`Stamp::text`] unchanged. A scan with a non-finite pose,
+/// as robot pose. Ranges: 3 decimals (a valid reading that would round up to the maximum range,
+/// or a `float32` value that 3 decimals do not hold, is written in full). Stamps: [`Stamp::text`] unchanged. A scan with a non-finite pose,
 /// bearing or maximum range, or whose stamp text is not one number, is refused with
 /// [`CarmenError::Unwritable`], since it would not read back.
 ///
@@ -221,13 +221,16 @@ fn flaser_can_hold(scan: &RangeScan) -> bool {
         && scan.max_range_m > 0.0
 }
 
-/// Appends ` r_1 … r_n`: 3 decimals, unless rounding would turn a return into a no-return.
+/// Appends ` r_1 … r_n`: 3 decimals, unless rounding would turn a return into a no-return, or
+/// the reading is a `float32` value (as a ROS laser gives it) that 3 decimals do not hold: then
+/// the shortest text that reads back exactly.
 fn push_ranges(line: &mut String, scan: &RangeScan) {
     use std::fmt::Write as _;
     for &r in &scan.ranges_m {
         let rounded = (r * 1000.0).round() / 1000.0;
+        let float32 = r.is_finite() && f64::from(r as f32) == r && rounded != r;
         // Writing to a String cannot fail.
-        let _ = if scan.is_valid_range(r) && !scan.is_valid_range(rounded) {
+        let _ = if float32 || (scan.is_valid_range(r) && !scan.is_valid_range(rounded)) {
             write!(line, " {r}")
         } else {
             write!(line, " {r:.3}")

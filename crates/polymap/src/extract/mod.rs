@@ -1,4 +1,5 @@
-//! Scan to segments: split the points at range jumps, simplify each run by Discrete Curve
+//! Scan to segments ([`extract_segments`]; [`extract_segments_closed`] for a 360° scan, whose
+//! last point neighbours its first): split the points at range jumps, simplify each run by Discrete Curve
 //! Evolution, refit each final segment to its points by total least squares.
 //!
 //! DCE (Latecki & Lakaemper) repeatedly removes the vertex of least relevance
@@ -71,7 +72,8 @@ pub struct ExtractedSegment {
     pub segment: Segment,
     /// Index of the first supporting point in the input slice.
     pub first_point: usize,
-    /// Number of supporting points (consecutive from `first_point`).
+    /// Number of supporting points (consecutive from `first_point`; in a closed scan they may
+    /// wrap past the last point to the first, see [`extract_segments_closed`]).
     pub point_count: usize,
     /// RMS distance of the supporting points from the fitted line, metres.
     pub rms_m: f64,
@@ -100,22 +102,133 @@ pub fn extract_segments(
     let mut out = Vec::new();
     let mut vertices = Vec::new();
     for run in split_runs(points, angle_increment_rad, params) {
-        let run_points = &points[run.clone()];
-        if run_points.len() < params.min_points.max(2) {
-            continue;
-        }
-        simplify_run(run_points, params.tolerance_m, &mut vertices);
-        for w in vertices.windows(2) {
-            let (a, b) = (w[0], w[1]);
-            if let Some(s) = refit(run_points, a, b, params) {
-                out.push(ExtractedSegment {
-                    first_point: run.start + a,
-                    ..s
-                });
-            }
-        }
+        extract_run(
+            &points[run.clone()],
+            run.start,
+            params,
+            &mut vertices,
+            &mut out,
+        );
     }
     out
+}
+
+/// Extracts line segments from the points of a scan that closes on itself (a 360° scan):
+/// the last point is followed by the first.
+///
+/// The curve is not broken at the seam between the last beam and the first: when no range
+/// jump separates them, the run that ends the scan and the run that starts it are one run. A
+/// scan without any jump is one closed curve, cut at one of its corners (a vertex kept by DCE),
+/// so that no wall is split by the cut. A real gap at the seam splits the curve as anywhere
+/// else. A segment's points then run from `first_point` on, wrapping past the last point to
+/// the first.
+///
+/// ```
+/// use polymap::extract::{extract_segments_closed, ExtractParams};
+/// use polymap::geometry::Vec2;
+/// // A 4 m × 4 m room seen from its centre, one point per degree, starting mid-wall.
+/// let pts: Vec<Vec2> = (0..360)
+///     .map(|i| {
+///         let a = (i as f64).to_radians();
+///         let r = 2.0 / a.cos().abs().max(a.sin().abs());
+///         Vec2::new(r * a.cos(), r * a.sin())
+///     })
+///     .collect();
+/// let segs = extract_segments_closed(&pts, 1f64.to_radians(), &ExtractParams::default());
+/// assert_eq!(segs.len(), 4); // four walls, the one at the seam in one piece
+/// assert!(segs.iter().all(|s| (s.segment.length() - 4.0).abs() < 0.2));
+/// ```
+pub fn extract_segments_closed(
+    points: &[Vec2],
+    angle_increment_rad: f64,
+    params: &ExtractParams,
+) -> Vec<ExtractedSegment> {
+    let n = points.len();
+    let runs = split_runs(points, angle_increment_rad, params);
+    if n < 3 || is_jump(points[n - 1], points[0], angle_increment_rad, params) {
+        return extract_segments(points, angle_increment_rad, params);
+    }
+    let mut out = Vec::new();
+    let mut vertices = Vec::new();
+    let ring: Vec<Vec2>;
+    let start;
+    if runs.len() == 1 {
+        // One closed curve: start it at a corner, and close it by repeating that point.
+        simplify_run(points, params.tolerance_m, &mut vertices);
+        start = corner(points, &vertices);
+        ring = points[start..]
+            .iter()
+            .chain(&points[..=start])
+            .copied()
+            .collect();
+    } else {
+        // The last run continues into the first.
+        let (first, last) = (runs[0].clone(), runs[runs.len() - 1].clone());
+        for run in &runs[1..runs.len() - 1] {
+            extract_run(
+                &points[run.clone()],
+                run.start,
+                params,
+                &mut vertices,
+                &mut out,
+            );
+        }
+        start = last.start;
+        ring = points[last].iter().chain(&points[first]).copied().collect();
+    }
+    let mut wrapped = Vec::new();
+    extract_run(&ring, 0, params, &mut vertices, &mut wrapped);
+    out.extend(wrapped.into_iter().map(|s| ExtractedSegment {
+        first_point: (start + s.first_point) % n,
+        ..s
+    }));
+    out
+}
+
+/// The interior DCE vertex where the curve turns most: a corner to cut a closed curve at.
+fn corner(points: &[Vec2], vertices: &[usize]) -> usize {
+    let turn = |w: &[usize]| {
+        let (a, b, c) = (points[w[0]], points[w[1]], points[w[2]]);
+        let (u, v) = (b - a, c - b);
+        let cos = u.dot(v) / (u.length() * v.length()).max(1e-12);
+        -cos
+    };
+    vertices
+        .windows(3)
+        .max_by(|x, y| turn(x).total_cmp(&turn(y)))
+        .map_or(0, |w| w[1])
+}
+
+/// Simplifies one run and refits its segments; `offset` is the run's first index.
+fn extract_run(
+    run_points: &[Vec2],
+    offset: usize,
+    params: &ExtractParams,
+    vertices: &mut Vec<usize>,
+    out: &mut Vec<ExtractedSegment>,
+) {
+    if run_points.len() < params.min_points.max(2) {
+        return;
+    }
+    simplify_run(run_points, params.tolerance_m, vertices);
+    for w in vertices.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        if let Some(s) = refit(run_points, a, b, params) {
+            out.push(ExtractedSegment {
+                first_point: offset + a,
+                ..s
+            });
+        }
+    }
+}
+
+/// True when consecutive points `a` and `b` are too far apart to be on one surface.
+fn is_jump(a: Vec2, b: Vec2, angle_increment_rad: f64, params: &ExtractParams) -> bool {
+    let r = a.length().min(b.length());
+    let jump_m = params
+        .jump_min_m
+        .max(params.jump_beam_factor * r * angle_increment_rad.abs());
+    b.distance_squared(a) > jump_m * jump_m
 }
 
 /// Index ranges of runs of points without a range jump.
@@ -127,11 +240,7 @@ fn split_runs(
     let mut runs = Vec::new();
     let mut start = 0;
     for i in 1..points.len() {
-        let r = points[i - 1].length().min(points[i].length());
-        let jump_m = params
-            .jump_min_m
-            .max(params.jump_beam_factor * r * angle_increment_rad.abs());
-        if points[i].distance_squared(points[i - 1]) > jump_m * jump_m {
+        if is_jump(points[i - 1], points[i], angle_increment_rad, params) {
             runs.push(start..i);
             start = i;
         }

@@ -109,3 +109,67 @@ mod prop {
         }
     }
 }
+
+/// A square room of half-width `h` seen from its centre, one point per degree from `start_deg`.
+fn room_scan(h: f64, start_deg: f64) -> Vec<Vec2> {
+    (0..360)
+        .map(|i| {
+            let a = (start_deg + i as f64).to_radians();
+            let r = h / a.cos().abs().max(a.sin().abs());
+            Vec2::new(r * a.cos(), r * a.sin())
+        })
+        .collect()
+}
+
+#[test]
+fn a_closed_scan_is_not_cut_at_its_seam() {
+    let pts = room_scan(2.0, 0.0); // the seam lies in the middle of the wall at x = 2
+    let open = extract_segments(&pts, 1f64.to_radians(), &ExtractParams::default());
+    let closed = extract_segments_closed(&pts, 1f64.to_radians(), &ExtractParams::default());
+    assert_eq!(
+        open.len(),
+        5,
+        "read as an open curve the seam splits a wall"
+    );
+    assert_eq!(closed.len(), 4);
+    assert!(
+        closed
+            .iter()
+            .all(|s| (s.segment.length() - 4.0).abs() < 0.2)
+    );
+    let support: usize = closed.iter().map(|s| s.point_count).sum();
+    assert!(support >= 356, "{support}");
+}
+
+#[test]
+fn a_closed_scan_with_a_gap_elsewhere_joins_the_runs_at_its_seam() {
+    // A pillar in front of the wall at y = 2 makes two range jumps; the seam is on x = 2.
+    let mut pts = room_scan(2.0, 0.0);
+    for p in &mut pts[80..100] {
+        *p *= 0.5;
+    }
+    let closed = extract_segments_closed(&pts, 1f64.to_radians(), &ExtractParams::default());
+    let seam_wall: Vec<_> = closed
+        .iter()
+        .filter(|s| (s.segment.start.x - 2.0).abs() < 0.05 && (s.segment.end.x - 2.0).abs() < 0.05)
+        .collect();
+    assert_eq!(seam_wall.len(), 1, "{closed:?}");
+    assert!((seam_wall[0].segment.length() - 4.0).abs() < 0.2);
+    assert!(
+        seam_wall[0].first_point + seam_wall[0].point_count > pts.len(),
+        "wraps"
+    );
+}
+
+#[test]
+fn a_real_gap_at_the_seam_is_not_joined() {
+    // The scan starts just past a doorway: the last point (on the wall at x = 2, y < 0) and the
+    // first (on a wall 1 m further out) are 1 m apart.
+    let mut pts = room_scan(2.0, 0.0);
+    for p in &mut pts[..40] {
+        *p *= 1.5;
+    }
+    let open = extract_segments(&pts, 1f64.to_radians(), &ExtractParams::default());
+    let closed = extract_segments_closed(&pts, 1f64.to_radians(), &ExtractParams::default());
+    assert_eq!(closed, open);
+}

@@ -17,7 +17,7 @@ use crate::align::{
 };
 use crate::config::Config;
 use crate::directions::recent_main_directions;
-use crate::extract::extract_segments;
+use crate::extract::{extract_segments, extract_segments_closed};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure};
 use crate::map::{GlobalMap, MapSegment};
@@ -249,6 +249,7 @@ impl Mapper {
             config,
             points,
             scan.angle_increment_rad,
+            scan.is_full_circle(),
             scan.odom_from_robot,
         );
         prepared.extract_s = clock.elapsed().as_secs_f64();
@@ -257,18 +258,25 @@ impl Mapper {
 
     /// [`Mapper::prepare`] for a scan already converted to points: `points_in_robot` are its
     /// valid returns in beam order (robot frame, metres, as [`RangeScan::points_in_robot`]
-    /// gives them), `angle_increment_rad` its beam step. For callers that keep the points for
-    /// something else too, so the ranges are converted once.
+    /// gives them), `angle_increment_rad` its beam step, `closed` whether the scan goes all the
+    /// way round ([`RangeScan::is_full_circle`]: its last point neighbours its first). For
+    /// callers that keep the points for something else too, so the ranges are converted once.
     pub fn prepare_points(
         config: &Config,
         mut points_in_robot: Vec<Vec2>,
         angle_increment_rad: f64,
+        closed: bool,
         odom_from_robot: Option<Pose2>,
     ) -> PreparedScan {
         let clock = Instant::now();
         let max_range_2 = config.extract.max_range_m.powi(2);
         points_in_robot.retain(|p| p.length_squared() <= max_range_2);
-        let segments = extract_segments(&points_in_robot, angle_increment_rad, &config.extract)
+        // A 360° scan is one closed curve: extraction must not cut it at the seam.
+        let extract = match closed {
+            true => extract_segments_closed,
+            false => extract_segments,
+        };
+        let segments = extract(&points_in_robot, angle_increment_rad, &config.extract)
             .iter()
             .map(|e| e.segment)
             .collect();

@@ -1,0 +1,366 @@
+//! The two message types polymap reads, decoded by hand: `sensor_msgs/LaserScan` and
+//! `nav_msgs/Odometry`, in ROS 1 serialization or CDR.
+
+use polymap::geometry::Pose2;
+use polymap::scan::{RangeScan, Stamp};
+
+use super::error::MessageProblem;
+use super::wire::{Decoder, Encoder, Flavor};
+
+/// A ROS time stamp: seconds and nanoseconds since the epoch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub struct RosTime {
+    /// Whole seconds (ROS 1: unsigned 32-bit; ROS 2: signed 32-bit).
+    pub sec: i64,
+    /// Nanoseconds, `0..1_000_000_000`.
+    pub nanosec: u32,
+}
+
+impl RosTime {
+    /// Nanoseconds since the epoch.
+    pub fn nanos(&self) -> i128 {
+        i128::from(self.sec) * 1_000_000_000 + i128::from(self.nanosec)
+    }
+
+    /// The stamp as text, with 6 decimals when it is a whole number of microseconds and 9
+    /// otherwise; the value in seconds is parsed back from that text.
+    ///
+    /// ```
+    /// use polymap_io::ros::RosTime;
+    /// let t = RosTime { sec: 1_000_000_000, nanosec: 100_000_000 };
+    /// assert_eq!(t.to_stamp().text, "1000000000.100000");
+    /// let t = RosTime { sec: 5, nanosec: 7 };
+    /// assert_eq!(t.to_stamp().text, "5.000000007");
+    /// let t = RosTime { sec: -1, nanosec: 500_000_000 };
+    /// assert_eq!(t.to_stamp().text, "-0.500000");
+    /// ```
+    pub fn to_stamp(&self) -> Stamp {
+        let n = self.nanos();
+        let sign = if n < 0 { "-" } else { "" };
+        let (whole, frac) = (n.abs() / 1_000_000_000, n.abs() % 1_000_000_000);
+        let text = if frac % 1000 == 0 {
+            format!("{sign}{whole}.{:06}", frac / 1000)
+        } else {
+            format!("{sign}{whole}.{frac:09}")
+        };
+        Stamp {
+            seconds: text.parse().unwrap_or(n as f64 * 1e-9),
+            text,
+        }
+    }
+
+    /// The time of `seconds` (the inverse of [`to_stamp`](Self::to_stamp) for stamps written
+    /// with at most 9 decimals); `None` when out of the 32-bit range of ROS times.
+    pub fn from_stamp(stamp: &Stamp) -> Option<RosTime> {
+        let (whole, frac) = stamp.text.split_once('.').unwrap_or((&stamp.text, ""));
+        let negative = whole.starts_with('-');
+        let whole: i64 = whole.trim_start_matches('-').parse().ok()?;
+        let digits: String = frac.chars().chain(std::iter::repeat('0')).take(9).collect();
+        let frac: i64 = digits.parse().ok()?;
+        let n = whole * 1_000_000_000 + frac;
+        let n = if negative { -n } else { n };
+        let t = RosTime {
+            sec: n.div_euclid(1_000_000_000),
+            nanosec: n.rem_euclid(1_000_000_000) as u32,
+        };
+        (i64::from(i32::MIN)..=i64::from(u32::MAX))
+            .contains(&t.sec)
+            .then_some(t)
+    }
+
+    fn decode(d: &mut Decoder<'_>, flavor: Flavor) -> Result<Self, MessageProblem> {
+        let sec = d.u32("header.stamp.sec")?;
+        let sec = match flavor {
+            Flavor::Ros1 => i64::from(sec),
+            _ => i64::from(sec as i32),
+        };
+        let nanosec = d.u32("header.stamp.nanosec")?;
+        if nanosec >= 1_000_000_000 {
+            return Err(MessageProblem::BadValue {
+                field: "header.stamp.nanosec",
+                value: f64::from(nanosec),
+            });
+        }
+        Ok(RosTime { sec, nanosec })
+    }
+
+    fn encode(&self, e: &mut Encoder) {
+        e.u32(self.sec as u32);
+        e.u32(self.nanosec);
+    }
+}
+
+/// A `std_msgs/Header`: ROS 1 has a sequence number first, ROS 2 does not.
+fn decode_header(d: &mut Decoder<'_>, flavor: Flavor) -> Result<(RosTime, String), MessageProblem> {
+    if flavor == Flavor::Ros1 {
+        d.u32("header.seq")?;
+    }
+    let stamp = RosTime::decode(d, flavor)?;
+    let frame_id = d.string("header.frame_id")?;
+    Ok((stamp, frame_id))
+}
+
+fn encode_header(e: &mut Encoder, flavor: Flavor, seq: u32, stamp: &RosTime, frame_id: &str) {
+    if flavor == Flavor::Ros1 {
+        e.u32(seq);
+    }
+    stamp.encode(e);
+    e.string(frame_id);
+}
+
+/// A `sensor_msgs/LaserScan` (ROS 1) or `sensor_msgs/msg/LaserScan` (ROS 2); intensities are
+/// only counted.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LaserScanMsg {
+    /// `header.stamp`.
+    pub stamp: RosTime,
+    /// `header.frame_id`.
+    pub frame_id: String,
+    /// Bearing of the first beam, radians.
+    pub angle_min: f32,
+    /// Bearing of the last beam, radians.
+    pub angle_max: f32,
+    /// Bearing step, radians (negative for a clockwise scanner).
+    pub angle_increment: f32,
+    /// Time between beams, seconds.
+    pub time_increment: f32,
+    /// Time between scans, seconds.
+    pub scan_time: f32,
+    /// Shortest valid range, metres.
+    pub range_min: f32,
+    /// Longest valid range, metres.
+    pub range_max: f32,
+    /// Ranges, metres.
+    pub ranges: Vec<f32>,
+    /// Number of intensities in the message (their values are not kept).
+    pub intensity_count: usize,
+}
+
+impl LaserScanMsg {
+    /// Decodes a message; checks its counts against its length and its geometry.
+    pub fn decode(data: &[u8], flavor: Flavor) -> Result<Self, MessageProblem> {
+        let mut d = match flavor {
+            Flavor::Ros1 => Decoder::ros1(data),
+            _ => Decoder::cdr(data)?,
+        };
+        let flavor = d.flavor();
+        let (stamp, frame_id) = decode_header(&mut d, flavor)?;
+        let mut f = [0f32; 7];
+        for (v, name) in f.iter_mut().zip(SCAN_FLOATS) {
+            *v = d.f32(name)?;
+        }
+        let ranges = d.f32_seq("ranges")?;
+        let intensity_count = d.count("intensities", 4)?;
+        for _ in 0..intensity_count {
+            d.f32("intensities")?;
+        }
+        d.finish()?;
+        let msg = LaserScanMsg {
+            stamp,
+            frame_id,
+            angle_min: f[0],
+            angle_max: f[1],
+            angle_increment: f[2],
+            time_increment: f[3],
+            scan_time: f[4],
+            range_min: f[5],
+            range_max: f[6],
+            ranges,
+            intensity_count,
+        };
+        msg.check_geometry()?;
+        Ok(msg)
+    }
+
+    fn check_geometry(&self) -> Result<(), MessageProblem> {
+        let bad = |field, value: f32| {
+            Err(MessageProblem::BadValue {
+                field,
+                value: f64::from(value),
+            })
+        };
+        if !self.angle_min.is_finite() {
+            return bad("angle_min", self.angle_min);
+        }
+        if !self.angle_increment.is_finite()
+            || (self.angle_increment == 0.0 && self.ranges.len() > 1)
+        {
+            return bad("angle_increment", self.angle_increment);
+        }
+        if self.range_min.is_nan() {
+            return bad("range_min", self.range_min);
+        }
+        if self.range_max.is_nan() || self.range_max <= 0.0 {
+            return bad("range_max", self.range_max);
+        }
+        Ok(())
+    }
+
+    /// Encodes the message (intensities: none).
+    pub fn encode(&self, flavor: Flavor, seq: u32) -> Vec<u8> {
+        let mut e = Encoder::new(flavor);
+        encode_header(&mut e, flavor, seq, &self.stamp, &self.frame_id);
+        for v in [
+            self.angle_min,
+            self.angle_max,
+            self.angle_increment,
+            self.time_increment,
+            self.scan_time,
+            self.range_min,
+            self.range_max,
+        ] {
+            e.f32(v);
+        }
+        e.f32_seq(&self.ranges);
+        e.u32(0);
+        e.finish()
+    }
+
+    /// The scan for the mapper: stamp from `header.stamp`; readings that are NaN, ±inf, below
+    /// `range_min` or above `range_max` become `+inf` (no-return); the laser frame is the robot
+    /// frame (no tf is read) and there is no odometry yet.
+    pub fn to_range_scan(&self) -> RangeScan {
+        let (lo, hi) = (self.range_min, self.range_max);
+        let ranges_m = self
+            .ranges
+            .iter()
+            .map(|&r| {
+                if r.is_finite() && r >= lo && r <= hi {
+                    f64::from(r)
+                } else {
+                    f64::INFINITY
+                }
+            })
+            .collect();
+        RangeScan {
+            stamp: self.stamp.to_stamp(),
+            ranges_m,
+            angle_min_rad: f64::from(self.angle_min),
+            angle_increment_rad: f64::from(self.angle_increment),
+            // `RangeScan` treats readings at its maximum as no-returns; ROS keeps `range_max`.
+            max_range_m: f64::from(self.range_max).next_up(),
+            robot_from_laser: Pose2::IDENTITY,
+            odom_from_robot: None,
+        }
+    }
+
+    /// The message for a scan (the inverse of [`to_range_scan`](Self::to_range_scan) up to
+    /// `float32` precision): no-returns and readings at or beyond `max_range_m` become `+inf`.
+    pub fn from_range_scan(scan: &RangeScan, stamp: RosTime, frame_id: &str) -> Self {
+        let n = scan.ranges_m.len();
+        let ranges = scan
+            .ranges_m
+            .iter()
+            .map(|&r| {
+                if scan.is_valid_range(r) {
+                    r as f32
+                } else {
+                    f32::INFINITY
+                }
+            })
+            .collect();
+        let last = scan.angle_min_rad + n.saturating_sub(1) as f64 * scan.angle_increment_rad;
+        LaserScanMsg {
+            stamp,
+            frame_id: frame_id.to_owned(),
+            angle_min: scan.angle_min_rad as f32,
+            angle_max: last as f32,
+            angle_increment: scan.angle_increment_rad as f32,
+            time_increment: 0.0,
+            scan_time: 0.0,
+            range_min: 0.0,
+            range_max: scan.max_range_m as f32,
+            ranges,
+            intensity_count: 0,
+        }
+    }
+}
+
+const SCAN_FLOATS: [&str; 7] = [
+    "angle_min",
+    "angle_max",
+    "angle_increment",
+    "time_increment",
+    "scan_time",
+    "range_min",
+    "range_max",
+];
+
+/// The pose part of a `nav_msgs/Odometry`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OdometryMsg {
+    /// `header.stamp`.
+    pub stamp: RosTime,
+    /// `pose.pose.position` x and y, metres (odometry frame).
+    pub position_m: [f64; 2],
+    /// `pose.pose.orientation` as `[x, y, z, w]`.
+    pub orientation: [f64; 4],
+}
+
+impl OdometryMsg {
+    /// Decodes a message (twist and covariances are checked for length, not kept).
+    pub fn decode(data: &[u8], flavor: Flavor) -> Result<Self, MessageProblem> {
+        let mut d = match flavor {
+            Flavor::Ros1 => Decoder::ros1(data),
+            _ => Decoder::cdr(data)?,
+        };
+        let flavor = d.flavor();
+        let (stamp, _) = decode_header(&mut d, flavor)?;
+        d.string("child_frame_id")?;
+        let x = d.f64("pose.position.x")?;
+        let y = d.f64("pose.position.y")?;
+        d.f64("pose.position.z")?;
+        let mut q = [0.0; 4];
+        for v in &mut q {
+            *v = d.f64("pose.orientation")?;
+        }
+        d.skip_f64(36, "pose.covariance")?;
+        d.skip_f64(6 + 36, "twist")?;
+        d.finish()?;
+        if !(x.is_finite() && y.is_finite() && q.iter().all(|v| v.is_finite())) {
+            return Err(MessageProblem::BadValue {
+                field: "pose",
+                value: f64::NAN,
+            });
+        }
+        Ok(OdometryMsg {
+            stamp,
+            position_m: [x, y],
+            orientation: q,
+        })
+    }
+
+    /// Encodes the message with frames `odom` and `base_link`, zero covariances and twist.
+    pub fn encode(&self, flavor: Flavor, seq: u32) -> Vec<u8> {
+        let mut e = Encoder::new(flavor);
+        encode_header(&mut e, flavor, seq, &self.stamp, "odom");
+        e.string("base_link");
+        e.f64(self.position_m[0]);
+        e.f64(self.position_m[1]);
+        e.f64(0.0);
+        for v in self.orientation {
+            e.f64(v);
+        }
+        for _ in 0..36 + 6 + 36 {
+            e.f64(0.0);
+        }
+        e.finish()
+    }
+
+    /// The planar pose: x, y and the yaw of the quaternion.
+    pub fn pose(&self) -> Pose2 {
+        let [qx, qy, qz, qw] = self.orientation;
+        let yaw = (2.0 * (qw * qz + qx * qy)).atan2(1.0 - 2.0 * (qy * qy + qz * qz));
+        Pose2::new(self.position_m[0], self.position_m[1], yaw)
+    }
+
+    /// The message of a planar pose (quaternion about z).
+    pub fn from_pose(stamp: RosTime, pose: &Pose2) -> Self {
+        let (s, c) = (pose.theta_rad / 2.0).sin_cos();
+        OdometryMsg {
+            stamp,
+            position_m: [pose.x_m, pose.y_m],
+            orientation: [0.0, 0.0, s, c],
+        }
+    }
+}

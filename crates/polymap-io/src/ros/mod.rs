@@ -1,0 +1,151 @@
+//! ROS recordings without ROS: ROS 1 bags, ROS 2 MCAP files, rosbag2 sqlite3 files and
+//! folders, read message by message with bounded memory.
+//!
+//! One module per container format, each a [`MessageSource`] yielding raw messages in the
+//! file's own order:
+//!
+//! - [`ros1`]: bag format 2.0, chunks uncompressed, `bz2` or `lz4`, read in file order without
+//!   the index (which may be wrong); and a writer.
+//! - [`mcap_file`]: MCAP through the `mcap` crate's sans-I/O reader (chunks `zstd`/`lz4`); and
+//!   a writer. [`mcap_indexed`]: the same through the summary, skipping chunks without the
+//!   topics asked for.
+//! - `sqlite` (feature `sqlite`, on by default): rosbag2 `.db3` files.
+//! - [`folder`]: rosbag2 folders (`metadata.yaml` and its storage files).
+//!
+//! On top of them, [`messages`] decodes `sensor_msgs/LaserScan` and `nav_msgs/Odometry` by
+//! hand ([`wire`]: ROS 1 serialization and CDR in both byte orders), [`scans`] turns a laser
+//! topic into [`RangeScan`](polymap::scan::RangeScan)s with odometry interpolated to each
+//! scan's stamp, and [`survey`] counts what a file holds. [`record`] writes scans as MCAP
+//! files and bags (the simulator's ROS output).
+
+pub mod error;
+pub mod folder;
+pub mod mcap_file;
+pub mod mcap_indexed;
+pub mod messages;
+pub mod record;
+pub mod ros1;
+pub mod scans;
+pub mod source;
+#[cfg(feature = "sqlite")]
+pub mod sqlite;
+pub mod survey;
+mod typedefs;
+pub mod wire;
+
+use std::path::Path;
+
+pub use error::{MessageProblem, RosError};
+pub use folder::parse_metadata;
+pub use messages::{LaserScanMsg, OdometryMsg, RosTime};
+pub use record::{LASER_FRAME, ODOM_TOPIC, SCAN_TOPIC, float32_scan, write_bag, write_mcap};
+pub use scans::{RosScanOptions, RosScanReader, RosStats};
+pub use source::{Connection, Encoding, MessageSource, Place, RawMessage, ReadLimits};
+pub use survey::{LaserGeometry, TopicSummary, survey};
+pub use wire::Flavor;
+
+/// The ROS container formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RosFormat {
+    /// A ROS 1 bag, format 2.0.
+    Bag1,
+    /// An MCAP file.
+    Mcap,
+    /// A rosbag2 sqlite3 file (`.db3`).
+    Sqlite,
+    /// A rosbag2 folder with `metadata.yaml`.
+    Folder,
+}
+
+/// Opens the reader of one container.
+pub fn open_source(
+    path: &Path,
+    format: RosFormat,
+    limits: ReadLimits,
+    skip_bad: bool,
+) -> Result<Box<dyn MessageSource>, RosError> {
+    match format {
+        RosFormat::Bag1 => Ok(Box::new(ros1::BagReader::open(path, limits, skip_bad)?)),
+        RosFormat::Mcap => Ok(Box::new(mcap_file::McapReader::open(path, limits)?)),
+        RosFormat::Sqlite => open_sqlite(path, limits),
+        RosFormat::Folder => {
+            let parts = folder::folder_files(path)?;
+            let open = move |p: &Path| match sniff(p)? {
+                Some(RosFormat::Folder) | None => Err(RosError::Unsupported {
+                    path: p.to_path_buf(),
+                    what: "not an MCAP or sqlite3 storage file".into(),
+                }),
+                Some(f) => open_source(p, f, limits, skip_bad),
+            };
+            Ok(Box::new(folder::Chain::new(parts, Box::new(open))?))
+        }
+    }
+}
+
+/// Opens the reader of one container for the messages of `topics` only. Where the format
+/// allows (an MCAP file with chunk indexes), chunks holding none of them are skipped without
+/// being read; otherwise this is [`open_source`] (the caller filters).
+pub fn open_source_for_topics(
+    path: &Path,
+    format: RosFormat,
+    limits: ReadLimits,
+    skip_bad: bool,
+    topics: &[String],
+) -> Result<Box<dyn MessageSource>, RosError> {
+    if format == RosFormat::Mcap {
+        if let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, topics)? {
+            return Ok(Box::new(reader));
+        }
+    }
+    open_source(path, format, limits, skip_bad)
+}
+
+#[cfg(feature = "sqlite")]
+fn open_sqlite(path: &Path, limits: ReadLimits) -> Result<Box<dyn MessageSource>, RosError> {
+    Ok(Box::new(sqlite::SqliteReader::open(path, limits)?))
+}
+
+#[cfg(not(feature = "sqlite"))]
+fn open_sqlite(path: &Path, _limits: ReadLimits) -> Result<Box<dyn MessageSource>, RosError> {
+    Err(RosError::Unsupported {
+        path: path.to_path_buf(),
+        what: "rosbag2 sqlite3 storage needs polymap built with the `sqlite` feature".into(),
+    })
+}
+
+/// The ROS format of a file or folder by its content; `None` for anything else.
+pub fn sniff(path: &Path) -> Result<Option<RosFormat>, RosError> {
+    if path.is_dir() {
+        return Ok(path
+            .join("metadata.yaml")
+            .is_file()
+            .then_some(RosFormat::Folder));
+    }
+    let mut head = [0u8; 16];
+    let n = read_head(path, &mut head)?;
+    let head = &head[..n];
+    Ok(if head.starts_with(b"#ROSBAG V") {
+        Some(RosFormat::Bag1)
+    } else if head.starts_with(mcap_file::MCAP_MAGIC) {
+        Some(RosFormat::Mcap)
+    } else if head.starts_with(b"SQLite format 3\0") {
+        Some(RosFormat::Sqlite)
+    } else {
+        None
+    })
+}
+
+fn read_head(path: &Path, head: &mut [u8]) -> Result<usize, RosError> {
+    use std::io::Read;
+    let mut file = std::fs::File::open(path).map_err(|e| RosError::io(path, e))?;
+    let mut n = 0;
+    while n < head.len() {
+        match file.read(&mut head[n..]) {
+            Ok(0) => break,
+            Ok(k) => n += k,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(RosError::io(path, e)),
+        }
+    }
+    Ok(n)
+}

@@ -1,0 +1,422 @@
+//! A laser topic as a stream of [`RangeScan`]s, with odometry interpolated to each scan.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use polymap::geometry::Pose2;
+use polymap::scan::RangeScan;
+
+use super::error::{MessageProblem, RosError};
+use super::mcap_indexed::summary_topics;
+use super::messages::{LaserScanMsg, OdometryMsg};
+use super::source::{Connection, MessageSource, ReadLimits};
+use super::survey::{TopicSummary, survey};
+use super::{RosFormat, open_source, open_source_for_topics};
+
+/// How many skipped-message errors are kept for the warning.
+const MAX_BAD_MESSAGES: usize = 10;
+
+/// What to read from a ROS recording.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RosScanOptions {
+    /// The `LaserScan` topic; `None`: the only one in the file.
+    pub topic: Option<String>,
+    /// Attach odometry to each scan (interpolated by time).
+    pub odometry: bool,
+    /// The `Odometry` topic; `None`: the only one in the file.
+    pub odom_topic: Option<String>,
+    /// Skip (and count) undecodable messages and corrupt chunks instead of failing.
+    pub skip_bad: bool,
+    /// Size limits.
+    pub limits: ReadLimits,
+}
+
+/// What a [`RosScanReader`] has read so far.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RosStats {
+    /// Messages read on every topic.
+    pub messages: u64,
+    /// Scans returned.
+    pub scans: u64,
+    /// Odometry messages read.
+    pub odometry_messages: u64,
+    /// Messages of other topics, per topic.
+    pub other_topics: BTreeMap<String, u64>,
+    /// Undecodable messages and corrupt chunks skipped (only with `skip_bad`).
+    pub bad_messages: u64,
+    /// The first few of their errors.
+    pub bad_message_errors: Vec<String>,
+    /// Readings that are no-returns.
+    pub no_return_readings: u64,
+    /// Readings that are real returns.
+    pub valid_readings: u64,
+    /// Scans outside the odometry's time span, given the nearest odometry pose.
+    pub scans_outside_odometry: u64,
+}
+
+/// Streams the scans of one `LaserScan` topic in file order.
+///
+/// Without [`RosScanOptions::topic`] (or, with odometry, without
+/// [`RosScanOptions::odom_topic`]) the file is surveyed first to find the only topic of the
+/// type (several are an error that lists them): from an MCAP file's summary statistics when it
+/// has them, otherwise by one pass counting messages per topic.
+///
+/// Odometry is read by a second reader over the same file, moving forward in step with the
+/// scans: memory stays bounded and each scan's pose is interpolated between the odometry
+/// messages around its `header.stamp` (x and y linearly, yaw along the shorter arc).
+pub struct RosScanReader {
+    source: Box<dyn MessageSource>,
+    path: PathBuf,
+    topic: String,
+    index: u64,
+    odom: Option<OdomTrack>,
+    stats: RosStats,
+    skip_bad: bool,
+}
+
+impl RosScanReader {
+    /// Opens `path` (of format `format`) for the scans of the chosen topic.
+    pub fn open(
+        path: &Path,
+        format: RosFormat,
+        options: &RosScanOptions,
+    ) -> Result<Self, RosError> {
+        let open = || open_source(path, format, options.limits, options.skip_bad);
+        let open_for = |topics: &[String]| {
+            open_source_for_topics(path, format, options.limits, options.skip_bad, topics)
+        };
+        let needs_survey =
+            options.topic.is_none() || (options.odometry && options.odom_topic.is_none());
+        let topics = match (needs_survey, format) {
+            (false, _) => Vec::new(),
+            // An MCAP summary counts the messages per channel: no pass over the data.
+            (true, RosFormat::Mcap) => match summary_topics(path, options.limits)? {
+                Some(topics) => topics,
+                None => survey(open()?.as_mut())?,
+            },
+            (true, _) => survey(open()?.as_mut())?,
+        };
+        let topic = match &options.topic {
+            Some(t) => t.clone(),
+            None => only_topic(
+                path,
+                &topics,
+                "sensor_msgs/LaserScan",
+                Connection::is_laser_scan,
+                "--topic",
+            )?,
+        };
+        let odom = if options.odometry {
+            let odom_topic = match &options.odom_topic {
+                Some(t) => t.clone(),
+                None => only_topic(
+                    path,
+                    &topics,
+                    "nav_msgs/Odometry",
+                    Connection::is_odometry,
+                    "--odom-topic",
+                )?,
+            };
+            let source = open_for(std::slice::from_ref(&odom_topic))?;
+            Some(OdomTrack::new(source, path, odom_topic, options.skip_bad))
+        } else {
+            None
+        };
+        Ok(RosScanReader {
+            source: open_for(std::slice::from_ref(&topic))?,
+            path: path.to_path_buf(),
+            topic,
+            index: 0,
+            odom,
+            stats: RosStats::default(),
+            skip_bad: options.skip_bad,
+        })
+    }
+
+    /// The laser topic read.
+    pub fn topic(&self) -> &str {
+        &self.topic
+    }
+
+    /// What has been read so far.
+    pub fn stats(&self) -> RosStats {
+        let mut stats = self.stats.clone();
+        let (skipped, errors) = self.source.skipped();
+        stats.bad_messages += skipped;
+        for e in errors
+            .iter()
+            .take(MAX_BAD_MESSAGES.saturating_sub(stats.bad_message_errors.len()))
+        {
+            stats.bad_message_errors.push(e.clone());
+        }
+        if let Some(odom) = &self.odom {
+            stats.odometry_messages = odom.read;
+            stats.bad_messages += odom.bad;
+        }
+        stats
+    }
+
+    /// Bytes of the file read so far.
+    pub fn position(&self) -> u64 {
+        self.source.position()
+    }
+
+    /// The next scan, `Ok(None)` at the end.
+    pub fn next_scan(&mut self) -> Result<Option<RangeScan>, RosError> {
+        while self.source.advance()? {
+            self.stats.messages += 1;
+            let m = self.source.current();
+            let c = &self.source.connections()[m.connection];
+            if c.topic != self.topic {
+                *self.stats.other_topics.entry(c.topic.clone()).or_insert(0) += 1;
+                continue;
+            }
+            self.index += 1;
+            if !c.is_laser_scan() {
+                return Err(RosError::Topics {
+                    path: self.path.clone(),
+                    problem: format!(
+                        "topic {} is of type {}, not sensor_msgs/LaserScan",
+                        self.topic, c.type_name
+                    ),
+                });
+            }
+            let decoded = match c.encoding.flavor() {
+                Some(f) => LaserScanMsg::decode(m.data, f),
+                None => Err(MessageProblem::Encoding(format!("{:?}", c.encoding))),
+            };
+            let place = m.place;
+            let msg = match decoded {
+                Ok(msg) => msg,
+                Err(problem) => {
+                    let e = RosError::Message {
+                        path: self.path.clone(),
+                        topic: self.topic.clone(),
+                        index: self.index,
+                        at: place.to_string(),
+                        problem,
+                    };
+                    self.bad(e)?;
+                    continue;
+                }
+            };
+            let mut scan = msg.to_range_scan();
+            if let Some(odom) = &mut self.odom {
+                let (pose, outside) = odom.at(msg.stamp.nanos())?;
+                scan.odom_from_robot = Some(pose);
+                self.stats.scans_outside_odometry += u64::from(outside);
+            }
+            let valid = scan.valid_count() as u64;
+            self.stats.valid_readings += valid;
+            self.stats.no_return_readings += scan.ranges_m.len() as u64 - valid;
+            self.stats.scans += 1;
+            return Ok(Some(scan));
+        }
+        if self.stats.scans == 0 && self.stats.bad_messages == 0 {
+            return Err(self.no_scans());
+        }
+        Ok(None)
+    }
+
+    fn bad(&mut self, e: RosError) -> Result<(), RosError> {
+        if !self.skip_bad {
+            return Err(e);
+        }
+        self.stats.bad_messages += 1;
+        if self.stats.bad_message_errors.len() < MAX_BAD_MESSAGES {
+            self.stats.bad_message_errors.push(e.to_string());
+        }
+        Ok(())
+    }
+
+    fn no_scans(&self) -> RosError {
+        let lasers: Vec<String> = self
+            .source
+            .connections()
+            .iter()
+            .filter(|c| c.is_laser_scan())
+            .map(|c| c.topic.clone())
+            .collect();
+        RosError::Topics {
+            path: self.path.clone(),
+            problem: format!(
+                "no messages on topic {}; LaserScan topics in the file: {}",
+                self.topic,
+                if lasers.is_empty() {
+                    "none".into()
+                } else {
+                    lasers.join(", ")
+                }
+            ),
+        }
+    }
+}
+
+/// The one topic of a type with messages, or an error listing what there is.
+fn only_topic(
+    path: &Path,
+    topics: &[TopicSummary],
+    type_name: &str,
+    is: fn(&Connection) -> bool,
+    flag: &str,
+) -> Result<String, RosError> {
+    let of_type: Vec<&TopicSummary> = topics
+        .iter()
+        .filter(|t| is(&t.connection) && t.messages > 0)
+        .collect();
+    let listing = |ts: &[&TopicSummary]| {
+        ts.iter()
+            .map(|t| format!("{} ({} messages)", t.connection.topic, t.messages))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    match of_type.as_slice() {
+        [one] => Ok(one.connection.topic.clone()),
+        [] => {
+            let all: Vec<&TopicSummary> = topics.iter().collect();
+            let all_listing = topics
+                .iter()
+                .map(|t| {
+                    format!(
+                        "{} [{}] ({} messages)",
+                        t.connection.topic, t.connection.type_name, t.messages
+                    )
+                })
+                .collect::<Vec<_>>()
+                .join(", ");
+            let _ = all;
+            Err(RosError::Topics {
+                path: path.to_path_buf(),
+                problem: format!(
+                    "no {type_name} topic with messages; topics: {}",
+                    if all_listing.is_empty() {
+                        "none".into()
+                    } else {
+                        all_listing
+                    }
+                ),
+            })
+        }
+        many => Err(RosError::Topics {
+            path: path.to_path_buf(),
+            problem: format!(
+                "{} {type_name} topics; choose one with {flag}: {}",
+                many.len(),
+                listing(many)
+            ),
+        }),
+    }
+}
+
+/// Odometry poses of one topic, read forward in step with the scans.
+struct OdomTrack {
+    source: Box<dyn MessageSource>,
+    path: PathBuf,
+    topic: String,
+    index: u64,
+    /// Messages read.
+    read: u64,
+    /// Undecodable messages skipped.
+    bad: u64,
+    skip_bad: bool,
+    prev: Option<(i128, Pose2)>,
+    next: Option<(i128, Pose2)>,
+    done: bool,
+}
+
+impl OdomTrack {
+    fn new(source: Box<dyn MessageSource>, path: &Path, topic: String, skip_bad: bool) -> Self {
+        OdomTrack {
+            source,
+            path: path.to_path_buf(),
+            topic,
+            index: 0,
+            read: 0,
+            bad: 0,
+            skip_bad,
+            prev: None,
+            next: None,
+            done: false,
+        }
+    }
+
+    /// The pose at `t_ns`, and whether `t_ns` was outside the odometry's span (then the
+    /// nearest pose is given).
+    fn at(&mut self, t_ns: i128) -> Result<(Pose2, bool), RosError> {
+        while !self.done && self.next.is_none_or(|(tn, _)| tn < t_ns) {
+            match self.read_next()? {
+                Some(sample) => {
+                    if let Some(old) = self.next.replace(sample) {
+                        self.prev = Some(old);
+                    }
+                }
+                None => self.done = true,
+            }
+        }
+        match (self.prev, self.next) {
+            (_, Some((tn, pn))) if tn == t_ns => Ok((pn, false)),
+            (Some((tp, pp)), Some((tn, pn))) if tp <= t_ns && t_ns < tn => {
+                let f = ((t_ns - tp) as f64) / ((tn - tp) as f64);
+                Ok((interpolate(&pp, &pn, f), false))
+            }
+            (_, Some((_, pn))) => Ok((pn, true)),
+            (Some((_, pp)), None) => Ok((pp, true)),
+            (None, None) => Err(RosError::Topics {
+                path: self.path.clone(),
+                problem: format!("no odometry messages on topic {}", self.topic),
+            }),
+        }
+    }
+
+    fn read_next(&mut self) -> Result<Option<(i128, Pose2)>, RosError> {
+        while self.source.advance()? {
+            let m = self.source.current();
+            let c = &self.source.connections()[m.connection];
+            if c.topic != self.topic {
+                continue;
+            }
+            self.index += 1;
+            if !c.is_odometry() {
+                return Err(RosError::Topics {
+                    path: self.path.clone(),
+                    problem: format!(
+                        "topic {} is of type {}, not nav_msgs/Odometry",
+                        self.topic, c.type_name
+                    ),
+                });
+            }
+            let decoded = match c.encoding.flavor() {
+                Some(f) => OdometryMsg::decode(m.data, f),
+                None => Err(MessageProblem::Encoding(format!("{:?}", c.encoding))),
+            };
+            match decoded {
+                Ok(msg) => {
+                    self.read += 1;
+                    return Ok(Some((msg.stamp.nanos(), msg.pose())));
+                }
+                Err(problem) if !self.skip_bad => {
+                    return Err(RosError::Message {
+                        path: self.path.clone(),
+                        topic: self.topic.clone(),
+                        index: self.index,
+                        at: m.place.to_string(),
+                        problem,
+                    });
+                }
+                Err(_) => self.bad += 1,
+            }
+        }
+        Ok(None)
+    }
+}
+
+/// The pose a fraction `f` of the way from `a` to `b` (yaw along the shorter arc).
+fn interpolate(a: &Pose2, b: &Pose2, f: f64) -> Pose2 {
+    let d = b.theta_rad - a.theta_rad;
+    let d = d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+    Pose2::new(
+        a.x_m + f * (b.x_m - a.x_m),
+        a.y_m + f * (b.y_m - a.y_m),
+        a.theta_rad + f * d,
+    )
+}
