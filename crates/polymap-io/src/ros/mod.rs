@@ -92,10 +92,10 @@ pub fn open_source_for_topics(
     skip_bad: bool,
     topics: &[String],
 ) -> Result<Box<dyn MessageSource>, RosError> {
-    if format == RosFormat::Mcap {
-        if let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, topics)? {
-            return Ok(Box::new(reader));
-        }
+    if format == RosFormat::Mcap
+        && let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, topics)?
+    {
+        return Ok(Box::new(reader));
     }
     open_source(path, format, limits, skip_bad)
 }

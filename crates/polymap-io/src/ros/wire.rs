@@ -226,7 +226,7 @@ impl Encoder {
 
     fn align(&mut self, n: usize) {
         if self.flavor.aligned() {
-            while (self.out.len() - self.origin) % n != 0 {
+            while !(self.out.len() - self.origin).is_multiple_of(n) {
                 self.out.push(0);
             }
         }
