@@ -425,6 +425,15 @@ mod tests {
             .collect()
     }
 
+    /// Within 0.15 m and 0.03 rad of the truth: a cell and a rotation step or so.
+    fn assert_near(truth: &Pose2, found: &Candidate) {
+        let d = truth.between(&found.map_from_robot);
+        assert!(
+            d.translation().length() < 0.15 && d.theta_rad.abs() < 0.03,
+            "{found:?}"
+        );
+    }
+
     #[test]
     fn branch_and_bound_finds_the_brute_force_best() {
         let (segs, pillar) = room();
@@ -451,11 +460,7 @@ mod tests {
             half_theta_rad: 0.6,
         };
         let found = matcher.best(&points, &window, 0.0, &[]).unwrap();
-        let d = truth.between(&found.map_from_robot);
-        assert!(
-            d.translation().length() < 0.15 && d.theta_rad.abs() < 0.03,
-            "{found:?}"
-        );
+        assert_near(&truth, &found);
     }
 
     #[test]
@@ -470,11 +475,7 @@ mod tests {
             half_theta_rad: std::f64::consts::PI,
         };
         let found = matcher.best(&points, &window, 0.5, &[]).unwrap();
-        let d = truth.between(&found.map_from_robot);
-        assert!(
-            d.translation().length() < 0.15 && d.theta_rad.abs() < 0.03,
-            "{found:?}"
-        );
+        assert_near(&truth, &found);
     }
 
     #[test]

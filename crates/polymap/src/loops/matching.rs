@@ -7,8 +7,9 @@ use crate::geometry::Pose2;
 use crate::map::{GlobalMap, MapSegment};
 
 use super::LoopDiagnostics;
-use super::field::{PoseGrid, ScoreField, distinct_peaks};
+use super::field::{PoseGrid, distinct_peaks, scored_grid};
 use super::nodes::{Candidate, NodeGraph};
+use crate::align::ScoreRaster;
 
 impl NodeGraph {
     /// The pose of the node in candidate `c`'s frame from their submaps, or `None` when the
@@ -53,8 +54,10 @@ impl NodeGraph {
         diagnostics.searches += 1;
         let sample = score_sample(points, &self.align);
         let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
-        let field = ScoreField::new(&c.target, self.align.rotation_search_sigma_m, SCORE_CELL_M);
-        let scored = field.scored_grid(
+        let sigma = self.align.rotation_search_sigma_m;
+        let raster = ScoreRaster::of(&c.target, &[], SCORE_CELL_M, sigma);
+        let scored = scored_grid(
+            &raster,
             &sample,
             &PoseGrid {
                 center: predicted,
