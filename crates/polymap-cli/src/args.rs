@@ -26,6 +26,18 @@ pub enum Command {
     Eval(EvalArgs),
     /// Write other formats from a finished `polymap map` run, without mapping again.
     Export(ExportArgs),
+    /// Localize a log in a saved map without changing the map: global localization at the
+    /// start, then tracking (with recovery when lost); writes the trajectory in the map's frame.
+    Localize(LocalizeArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct LocalizeArgs {
+    /// The run folder of the map to localize in (a `polymap map` output with map.json).
+    #[arg(long, value_name = "DIR")]
+    pub map: PathBuf,
+    #[command(flatten)]
+    pub run: MapArgs,
 }
 
 #[derive(Debug, Args)]
@@ -186,6 +198,32 @@ pub struct MapArgs {
     /// Quiet: no progress bar and no summary line (warnings and errors still go to stderr).
     #[arg(short, long)]
     pub quiet: bool,
+    /// Continue the map of an earlier run in DIR (its map.json): the log's first scans are
+    /// placed by a global search over that map (or near --initial-pose), then mapping goes on
+    /// in that map's frame.
+    #[arg(long, value_name = "DIR")]
+    pub resume: Option<PathBuf>,
+    /// With --resume or `localize`: where the robot starts, in the saved map's frame:
+    /// `x,y,yaw` in metres, metres, radians (searched within 1 m and 30° of it).
+    #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
+    pub initial_pose: Option<polymap::geometry::Pose2>,
+}
+
+/// A pose `x,y,yaw` (metres, metres, radians), finite.
+fn parse_pose(text: &str) -> Result<polymap::geometry::Pose2, String> {
+    let values: Vec<f64> = text
+        .split(',')
+        .map(|v| v.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected x,y,yaw (metres, metres, radians), found {text:?}"))?;
+    match values[..] {
+        [x, y, yaw] if values.iter().all(|v| v.is_finite()) => {
+            Ok(polymap::geometry::Pose2::new(x, y, yaw))
+        }
+        _ => Err(format!(
+            "expected three finite numbers x,y,yaw (metres, metres, radians), found {text:?}"
+        )),
+    }
 }
 
 /// A grid resolution: finite, at least 1 mm, at most 100 m.

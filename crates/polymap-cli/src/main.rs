@@ -43,6 +43,7 @@ fn main() -> ExitCode {
         args::Command::Simulate(a) => sim_cmd::run(&a),
         args::Command::Eval(a) => eval_cmd::run(&a),
         args::Command::Export(a) => export_cmd::run(&a),
+        args::Command::Localize(a) => map_cmd::localize(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -7,12 +7,14 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use polymap::align::Verdict;
 use polymap::config::Config;
-use polymap::mapper::MotionPrior;
+use polymap::geometry::Pose2;
+use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
 use polymap_export::formats::Format;
 use polymap_io::carmen::CarmenStats;
 use polymap_io::log::{LogOptions, LogSource};
-use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY};
+use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_pipeline::folder::{
     DIAGNOSTICS_FILE, RunFiles, RunFolder, percentiles_ms, summary_json,
@@ -20,7 +22,7 @@ use polymap_pipeline::folder::{
 use polymap_pipeline::pipeline::{self, PipelineOptions, RunRecord, ScanEvent};
 use serde_json::json;
 
-use crate::args::MapArgs;
+use crate::args::{LocalizeArgs, MapArgs};
 use crate::config_file::{effective_config, to_toml};
 use crate::outputs::DiagnosticsWriter;
 use crate::quote::quoted;
@@ -29,8 +31,68 @@ use crate::sim_cmd::simulate_to;
 /// At most this many scan points are drawn in the pictures.
 const MAX_PICTURE_POINTS: usize = 200_000;
 
+/// A saved map a run starts from: `--resume DIR` or `localize --map DIR`.
+struct SavedMap {
+    dir: PathBuf,
+    map: MapJson,
+    role: MapRole,
+}
+
+impl SavedMap {
+    fn read(dir: &Path, role: MapRole) -> Result<SavedMap> {
+        let map = read_map_json(dir.join("map.json")).with_context(|| {
+            format!(
+                "cannot read the saved map in {}",
+                quoted(&dir.display().to_string())
+            )
+        })?;
+        anyhow::ensure!(
+            !map.segments.is_empty(),
+            "{}: the saved map has no segments: nothing to place the log in",
+            quoted(&dir.join("map.json").display().to_string())
+        );
+        Ok(SavedMap {
+            dir: dir.to_path_buf(),
+            map,
+            role,
+        })
+    }
+
+    fn mapper(&self, config: &Config, start: Option<Pose2>) -> Mapper {
+        let prior = PriorMap {
+            segments: self.map.map_segments(),
+            scans: self.map.scans_mapped(),
+        };
+        Mapper::on_map(config.clone(), prior, self.role, start)
+    }
+}
+
+/// `polymap map`, new or (with `--resume`) continuing a saved map.
 pub fn run(a: &MapArgs) -> Result<()> {
+    let saved = match &a.resume {
+        Some(dir) => Some(SavedMap::read(dir, MapRole::Build)?),
+        None => None,
+    };
+    run_with(a, saved)
+}
+
+/// `polymap localize`: a log placed in a saved map that stays as it is.
+pub fn localize(l: &LocalizeArgs) -> Result<()> {
+    anyhow::ensure!(
+        l.run.resume.is_none(),
+        "localize takes the map with --map DIR; --resume is for `polymap map`"
+    );
+    anyhow::ensure!(l.run.log.is_some(), "localize needs the LOG to localize");
+    let saved = SavedMap::read(&l.map, MapRole::Localize)?;
+    run_with(&l.run, Some(saved))
+}
+
+fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let config = effective_config(&a.preset, &a.config, a.odometry)?;
+    anyhow::ensure!(
+        a.initial_pose.is_none() || saved.is_some(),
+        "--initial-pose places the log in a saved map: give --resume DIR (or use `polymap localize`)"
+    );
     anyhow::ensure!(
         a.every_offset < a.every,
         "--every-offset {} must be below --every {}",
@@ -59,7 +121,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
     let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (record, stats) = map_source(source, &config, a, &folder, stop)?;
+    let (record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
     check_not_empty(&log_name, &record, stats.as_ref())?;
     let removed = folder
         .remove_stale(&a.export, a.diagnostics)
@@ -71,7 +133,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
             folder.path().display()
         );
     }
-    let snapshot = snapshot(&log_name, &config, &record, a.svg_points);
+    let snapshot = snapshot(&log_name, &config, &record, a.svg_points, saved.as_ref());
     let reader = stats.as_ref().map_or(serde_json::Value::Null, reader_json);
     let every = [a.every, a.every_offset];
     let summary = summary_json(
@@ -138,6 +200,7 @@ fn map_source(
     a: &MapArgs,
     folder: &RunFolder,
     stop: Arc<AtomicBool>,
+    saved: Option<&SavedMap>,
 ) -> Result<(RunRecord, Option<CarmenStats>)> {
     let bar = progress_bar(a.quiet, source.size_bytes());
     let mut diag = match a.diagnostics {
@@ -154,10 +217,29 @@ fn map_source(
         history_title: quoted(&source.path().display().to_string()),
         stream: !source.is_regular_file(),
         stop: Some(stop),
+        mapper: saved.map(|s| s.mapper(config, a.initial_pose)),
     };
+    // A run on a saved map is placed by its first confident scan (or by --initial-pose); one
+    // that is not after `tracking.start_search_scans` scans stops, rather than map on blind.
+    let mut placed = saved.is_none() || a.initial_pose.is_some();
+    let search_scans = config.tracking.start_search_scans as usize;
     let outcome = pipeline::run(source, config, &options, |e: &ScanEvent<'_>| {
         if let Some(w) = diag.as_mut() {
             w.write(&e.stamp.text, e.update)?;
+        }
+        placed |= e.update.diagnostics.tracking.verdict != Verdict::Lost;
+        if !placed
+            && e.index + 1 >= search_scans
+            && let Some(s) = saved
+        {
+            return Err(format!(
+                "the log's start was not found in the map of {}: none of its first {} scans \
+                 fits one place of it confidently and alone; give --initial-pose x,y,yaw \
+                 (metres, metres, radians) if you know where it starts",
+                quoted(&s.dir.display().to_string()),
+                e.index + 1
+            )
+            .into());
         }
         let mapped = e.index as u64 + 1;
         if mapped.is_multiple_of(64) {
@@ -180,11 +262,23 @@ fn map_source(
 }
 
 /// The final map, trajectory and (with `--svg-points`) points for the pictures.
-fn snapshot(log: &str, config: &Config, run: &RunRecord, points: bool) -> MapSnapshot {
-    let frame = if config.mapper.motion_prior == MotionPrior::Odometry {
-        FRAME_ODOMETRY
-    } else {
-        FRAME_FIRST_SCAN
+fn snapshot(
+    log: &str,
+    config: &Config,
+    run: &RunRecord,
+    points: bool,
+    saved: Option<&SavedMap>,
+) -> MapSnapshot {
+    // A saved map keeps its frame.
+    let frame = match saved {
+        Some(s) => s.map.frame.as_str(),
+        None if config.mapper.motion_prior == MotionPrior::Odometry => FRAME_ODOMETRY,
+        None => FRAME_FIRST_SCAN,
+    };
+    let what = match saved.map(|s| s.role) {
+        Some(MapRole::Localize) => " localized in a saved map",
+        Some(MapRole::Build) => " continuing a saved map",
+        None => "",
     };
     let segments = run.mapper.segments();
     let polylines: Vec<Polyline> = run
@@ -201,7 +295,7 @@ fn snapshot(log: &str, config: &Config, run: &RunRecord, points: bool) -> MapSna
     MapSnapshot {
         frame: frame.to_owned(),
         title: format!(
-            "{} — {} scans, {} segments, {} polylines",
+            "{} — {} scans{what}, {} segments, {} polylines",
             quoted(log),
             run.trajectory.len(),
             segments.len(),
@@ -211,6 +305,7 @@ fn snapshot(log: &str, config: &Config, run: &RunRecord, points: bool) -> MapSna
         polylines,
         trajectory: run.trajectory.clone(),
         points,
+        scans_before: run.mapper.first_scan(),
     }
 }
 

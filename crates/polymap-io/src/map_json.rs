@@ -1,10 +1,17 @@
 //! The `map.json` contract: the finished map's segments and polylines, in metres.
 //!
 //! ```json
-//! {"units": "m", "frame": "first_scan",
+//! {"version": 2, "units": "m", "frame": "first_scan", "scans": 13631,
 //!  "segments": [{"start": [x, y], "end": [x, y], "born_scan": 0, "length_m": 1.0}, ...],
 //!  "polylines": [[0, 1, 2], ...]}
 //! ```
+//!
+//! `version` is the format's version ([`VERSION`]); a file without one is version 1 (written
+//! before the field existed: the same fields but `scans`), and a newer version than this reader
+//! knows is refused with a message naming both. `scans` counts the scans mapped into the map,
+//! over every run that built it (a resumed run numbers its scans on from there, so `born_scan`
+//! stays unique); a version 1 file gives one more than its highest `born_scan`. The format is
+//! documented for users in `docs/MAP_FORMAT.md`.
 //!
 //! `frame` names the map frame: [`FRAME_FIRST_SCAN`] (the first scan's pose) or
 //! [`FRAME_ODOMETRY`] (odometry's frame). A polyline lists segment indices in order along it.
@@ -39,14 +46,27 @@ pub const FRAME_FIRST_SCAN: &str = "first_scan";
 pub const FRAME_ODOMETRY: &str = "odometry";
 /// The only `units` value: metres.
 pub const UNITS_METRES: &str = "m";
+/// The format version this crate writes, and the newest it reads.
+pub const VERSION: u32 = 2;
+
+fn version_1() -> u32 {
+    1
+}
 
 /// The whole `map.json` document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct MapJson {
+    /// Format version ([`VERSION`] when written; 1 when absent from a file).
+    #[serde(default = "version_1")]
+    pub version: u32,
     /// Length unit of every coordinate: always `"m"`.
     pub units: String,
     /// Name of the frame the coordinates are in (see [`FRAME_FIRST_SCAN`], [`FRAME_ODOMETRY`]).
     pub frame: String,
+    /// Scans mapped into the map over every run that built it; `None` in a version 1 file
+    /// (see [`MapJson::scans_mapped`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scans: Option<u32>,
     /// The map's segments.
     pub segments: Vec<SegmentJson>,
     /// Polylines as lists of indices into `segments`, in order along each polyline.
@@ -111,11 +131,31 @@ impl MapJson {
         polylines: &[Vec<usize>],
     ) -> Self {
         MapJson {
+            version: VERSION,
             units: UNITS_METRES.to_owned(),
             frame: frame.into(),
+            scans: None,
             segments: segments.iter().map(SegmentJson::from).collect(),
             polylines: polylines.to_vec(),
         }
+    }
+
+    /// The same document saying `scans` scans built the map.
+    pub fn with_scans(mut self, scans: u32) -> Self {
+        self.scans = Some(scans);
+        self
+    }
+
+    /// Scans mapped into the map: `scans` when the file has it, otherwise one more than the
+    /// highest `born_scan` (0 for an empty map).
+    pub fn scans_mapped(&self) -> u32 {
+        self.scans.unwrap_or_else(|| {
+            self.segments
+                .iter()
+                .map(|s| s.born_scan.saturating_add(1))
+                .max()
+                .unwrap_or(0)
+        })
     }
 
     /// The segments as [`MapSegment`]s, in file order.
@@ -125,6 +165,15 @@ impl MapJson {
 
     /// Checks the contract: units `"m"`, finite coordinates, polyline indices in range.
     pub fn validate(&self) -> Result<(), String> {
+        check_version(self.version)?;
+        if let Some(scans) = self.scans
+            && let Some(s) = self.segments.iter().find(|s| s.born_scan >= scans)
+        {
+            return Err(format!(
+                "a segment was born at scan {} but the map says {scans} scans built it",
+                s.born_scan
+            ));
+        }
         if self.units != UNITS_METRES {
             return Err(format!("units must be \"m\", found {:?}", self.units));
         }
@@ -206,10 +255,15 @@ pub fn write_map_json_to(
 /// The document as text, one array element per line.
 fn to_json_text(map: &MapJson) -> Result<String, serde_json::Error> {
     let mut text = format!(
-        "{{\"units\": {}, \"frame\": {},\n\"segments\": [",
+        "{{\"version\": {}, \"units\": {}, \"frame\": {},",
+        map.version,
         serde_json::to_string(&map.units)?,
         serde_json::to_string(&map.frame)?
     );
+    if let Some(scans) = map.scans {
+        text.push_str(&format!(" \"scans\": {scans},"));
+    }
+    text.push_str("\n\"segments\": [");
     push_lines(&mut text, &map.segments)?;
     text.push_str("],\n\"polylines\": [");
     push_lines(&mut text, &map.polylines)?;
@@ -244,12 +298,43 @@ pub fn read_map_json_from(
     path: impl AsRef<Path>,
 ) -> Result<MapJson, MapJsonError> {
     let path = path.as_ref();
-    let map: MapJson = serde_json::from_reader(input).map_err(|e| json_error(path, e))?;
+    let mut text = String::new();
+    let mut input = input;
+    input
+        .read_to_string(&mut text)
+        .map_err(|source| MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    // The version first: a newer file may differ in shape, and its version is the message.
+    #[derive(Deserialize)]
+    struct Version {
+        #[serde(default = "version_1")]
+        version: u32,
+    }
+    if let Ok(v) = serde_json::from_str::<Version>(&text) {
+        check_version(v.version).map_err(|problem| MapJsonError::Invalid {
+            path: path.to_path_buf(),
+            problem,
+        })?;
+    }
+    let map: MapJson = serde_json::from_str(&text).map_err(|e| json_error(path, e))?;
     map.validate().map_err(|problem| MapJsonError::Invalid {
         path: path.to_path_buf(),
         problem,
     })?;
     Ok(map)
+}
+
+/// `Err` with a message naming `version` unless this crate reads it.
+fn check_version(version: u32) -> Result<(), String> {
+    if version == 0 || version > VERSION {
+        return Err(format!(
+            "map.json version {version} is not one this polymap reads (versions 1 to {VERSION}); \
+             it was written by a newer or a different program"
+        ));
+    }
+    Ok(())
 }
 
 fn json_error(path: &Path, source: serde_json::Error) -> MapJsonError {
@@ -299,6 +384,38 @@ mod tests {
         assert_eq!(value["units"], "m");
         assert_eq!(value["segments"][1]["end"][1], 2.5);
         assert_eq!(value["polylines"][0][1], 1);
+    }
+
+    #[test]
+    fn versions_are_read_or_refused_by_name() {
+        // Version 1: no version field, no scans; scans follow from born_scan.
+        let v1 = r#"{"units": "m", "frame": "first_scan",
+            "segments": [{"start": [0, 0], "end": [1, 0], "born_scan": 6}], "polylines": []}"#;
+        let map = read_map_json_from(v1.as_bytes(), "old.json").unwrap();
+        assert_eq!((map.version, map.scans, map.scans_mapped()), (1, None, 7));
+        // Written back, it is the current version.
+        let mut bytes = Vec::new();
+        let current = MapJson::new(FRAME_FIRST_SCAN, &map.map_segments(), &[]).with_scans(9);
+        write_map_json_to(&mut bytes, "m.json", &current).unwrap();
+        let text = String::from_utf8(bytes).unwrap();
+        assert!(text.starts_with("{\"version\": 2, "), "{text}");
+        assert_eq!(
+            read_map_json_from(text.as_bytes(), "m")
+                .unwrap()
+                .scans_mapped(),
+            9
+        );
+        // A newer version is refused with its number, even in a shape this reader cannot read.
+        let v9 = r#"{"version": 9, "units": "m", "segments": {"packed": "AAAA"}}"#;
+        let err = read_map_json_from(v9.as_bytes(), "new.json").unwrap_err();
+        assert!(
+            err.to_string().contains("new.json: map.json version 9"),
+            "{err}"
+        );
+        // A born_scan beyond the scan count breaks the contract.
+        let bad = r#"{"version": 2, "units": "m", "frame": "x", "scans": 3,
+            "segments": [{"start": [0, 0], "end": [1, 0], "born_scan": 3}], "polylines": []}"#;
+        assert!(read_map_json_from(bad.as_bytes(), "b").is_err());
     }
 
     #[test]

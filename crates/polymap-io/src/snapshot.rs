@@ -51,6 +51,9 @@ pub struct MapSnapshot {
     pub trajectory: Vec<StampedPose>,
     /// Scan points in the map frame, for pictures; may be empty.
     pub points: Vec<Vec2>,
+    /// Scans of earlier runs that this map continues (`--resume`); 0 for a map of one run.
+    /// `map.json`'s `scans` is this plus the trajectory's length.
+    pub scans_before: u32,
 }
 
 impl Default for MapSnapshot {
@@ -62,6 +65,7 @@ impl Default for MapSnapshot {
             polylines: Vec::new(),
             trajectory: Vec::new(),
             points: Vec::new(),
+            scans_before: 0,
         }
     }
 }
@@ -80,6 +84,9 @@ impl MapSnapshot {
                     segments: p.clone(),
                 })
                 .collect(),
+            scans_before: map
+                .scans_mapped()
+                .saturating_sub(trajectory.len().min(u32::MAX as usize) as u32),
             trajectory,
             points: Vec::new(),
         }
@@ -124,7 +131,9 @@ impl MapSnapshot {
     pub fn map_json(&self) -> MapJson {
         let polylines: Vec<Vec<usize>> =
             self.polylines.iter().map(|p| p.segments.clone()).collect();
+        let scans = self.trajectory.len().min(u32::MAX as usize) as u32;
         MapJson::new(self.frame.clone(), &self.segments, &polylines)
+            .with_scans(self.scans_before.saturating_add(scans))
     }
 }
 

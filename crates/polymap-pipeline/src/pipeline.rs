@@ -43,6 +43,10 @@ pub struct PipelineOptions {
     /// When set (by another thread), the run stops after the scan being mapped and keeps what
     /// was mapped; [`RunRecord::interrupted`] then says so.
     pub stop: Option<Arc<AtomicBool>>,
+    /// The mapper to push the scans into: `None` for a new map ([`Mapper::new`] of the run's
+    /// configuration); a mapper on a saved map ([`Mapper::on_map`]) to continue it or to
+    /// localize in it. Its configuration must be the run's.
+    pub mapper: Option<Mapper>,
 }
 
 /// One mapped scan, as the caller's callback sees it.
@@ -176,6 +180,9 @@ where
             .map_err(PipelineError::Spawn)?
     };
     let mut rec = Recorder::new(config, options);
+    if let Some(mapper) = &options.mapper {
+        rec.mapper = mapper.clone();
+    }
     // On an error this returns at once, dropping `rx`: the reading thread ends at its next
     // hand-over and is not waited for (it may be blocked reading a stream).
     let stop = options.stop.clone().unwrap_or_default();

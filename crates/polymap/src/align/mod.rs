@@ -19,6 +19,7 @@
 
 mod correlative;
 mod endpoints;
+mod global;
 mod nearest;
 mod point_to_segment;
 mod raster;
@@ -33,6 +34,7 @@ use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::grid::NearestCertificate;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
+pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, global_peaks, map_bounds};
 pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};

@@ -55,6 +55,9 @@ pub struct TrackParams {
     /// Every this many scans lost in a row, the search covers the whole map and the whole
     /// circle (a global re-localization); 0 never.
     pub relocalize_every_lost: u32,
+    /// A run on a saved map (`--resume`, `localize`) that has not placed itself after this
+    /// many scans stops with an error (each unplaced scan costs a global search).
+    pub start_search_scans: u32,
     /// Cell of the search raster, metres.
     pub search_cell_m: f64,
     /// Scale of the search raster's kernel, metres.
@@ -116,6 +119,7 @@ impl Default for TrackParams {
             lost_window_growth_m: 0.5,
             lost_window_max_m: 3.0,
             relocalize_every_lost: 10,
+            start_search_scans: 50,
             search_cell_m: 0.1,
             search_sigma_m: 0.2,
             search_points: 100,
@@ -169,6 +173,7 @@ impl TrackParams {
                 0,
                 1_000_000,
             )
+            .within("start_search_scans", self.start_search_scans, 1, 1_000_000)
             .within("search_cell_m", self.search_cell_m, 0.01, 1.0)
             .within("search_sigma_m", self.search_sigma_m, 0.01, 5.0)
             .within("search_points", self.search_points, 1, 10_000)
@@ -228,6 +233,9 @@ pub enum Reason {
     TooFewInliers,
     /// The scan has no valid points.
     NoPoints,
+    /// A run on a saved map has not placed itself yet: no pose of the map explains the scan
+    /// confidently.
+    NotFound,
 }
 
 /// The tracking outcome of one scan.

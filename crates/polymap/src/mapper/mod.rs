@@ -12,8 +12,8 @@ use serde::{Deserialize, Serialize};
 use crate::align::{
     AlignMethod, AlignParams, AlignResult, LoosePoints, Reason, RecentMotion, SearchWindow,
     Tracking, Verdict, WindowMatch, align_endpoints, align_points, fit_score, fit_score_above,
-    rotation_search, score_sample, search_window, should_search, thin_points, verdict,
-    window_search,
+    global_peaks, rotation_search, score_sample, search_window, should_search, thin_points,
+    verdict, window_search,
 };
 use crate::config::Config;
 use crate::directions::recent_main_directions;
@@ -100,12 +100,59 @@ pub struct PreparedScan {
     pub extract_s: f64,
 }
 
+/// A map saved by an earlier run, for a run to start from ([`Mapper::on_map`]).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PriorMap {
+    /// The map's segments, metres, in the map's frame.
+    pub segments: Vec<MapSegment>,
+    /// Scans mapped into it so far, over all its runs: the new run's scans are numbered on
+    /// from here (their segments' `born_scan`), and nothing born before moves.
+    pub scans: u32,
+}
+
+/// What a run does with its map.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MapRole {
+    /// Scans are merged into the map (mapping, or continuing a saved map).
+    #[default]
+    Build,
+    /// The map stays as it is: scans are only localized in it (no merge, no loop closure).
+    Localize,
+}
+
+/// How a run on a saved map places its first scan.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Placement {
+    /// Placed: tracking goes on from the last pose (a new map starts placed at its origin).
+    Placed,
+    /// Not yet: a global search over the whole map and circle, scan after scan.
+    Search,
+    /// Not yet: a search near a pose the user gave.
+    Near(Pose2),
+}
+
+/// A start given by the user is searched within this distance (each axis), metres...
+const NEAR_START_M: f64 = 1.0;
+/// ...and this angle, degrees.
+const NEAR_START_DEG: f64 = 30.0;
+/// Distinct peaks of a global search refined by ICP: the raster's best is not always ICP's.
+const PLACE_PEAKS: usize = 5;
+
 /// The incremental geometric mapper.
 #[derive(Debug, Clone)]
 pub struct Mapper {
     config: Config,
     map: GlobalMap,
+    /// Scans pushed in this run.
     scans: u32,
+    /// Scans of the runs this map continues: this run's scan `i` is the map's scan
+    /// `first_scan + i` (segments' `born_scan`).
+    first_scan: u32,
+    role: MapRole,
+    placement: Placement,
+    /// The map's scan the loop closer's first node starts at (where this run placed itself).
+    loop_base: u32,
     last_pose: Option<Pose2>,
     prev_pose: Option<Pose2>,
     last_odom: Option<Pose2>,
@@ -153,6 +200,10 @@ impl Mapper {
         Mapper {
             map: GlobalMap::new(config.map.grid_cell_m, reach_m),
             scans: 0,
+            first_scan: 0,
+            role: MapRole::Build,
+            placement: Placement::Placed,
+            loop_base: 0,
             last_pose: None,
             prev_pose: None,
             last_odom: None,
@@ -168,6 +219,45 @@ impl Mapper {
             verdicts: TrackingSummary::default(),
             config,
         }
+    }
+
+    /// A mapper that starts from a saved map: with [`MapRole::Build`] it goes on mapping (the
+    /// map grows, loops close among the new scans, old segments merge with new ones but never
+    /// move otherwise); with [`MapRole::Localize`] the map stays fixed and scans are only
+    /// placed in it. The first scan is placed by a global search over the whole map (or near
+    /// `start`, map frame, when given); until one is placed confidently every scan is lost
+    /// ([`Reason::NotFound`] or [`Reason::Ambiguous`]) and the search runs again on the next.
+    /// An empty prior map is a new map.
+    pub fn on_map(config: Config, prior: PriorMap, role: MapRole, start: Option<Pose2>) -> Self {
+        let mut mapper = Mapper::new(config);
+        for s in prior.segments {
+            mapper.map.insert(s);
+        }
+        mapper.first_scan = prior.scans;
+        mapper.loop_base = prior.scans;
+        mapper.role = role;
+        if !mapper.map.is_empty() {
+            mapper.placement = match start {
+                Some(pose) => Placement::Near(pose),
+                None => Placement::Search,
+            };
+        }
+        mapper
+    }
+
+    /// Whether the run has placed itself in its map (always, for a new map).
+    pub fn placed(&self) -> bool {
+        self.placement == Placement::Placed
+    }
+
+    /// What the run does with its map.
+    pub fn role(&self) -> MapRole {
+        self.role
+    }
+
+    /// The map's index of this run's first scan: scans of the runs before (0 for a new map).
+    pub fn first_scan(&self) -> u32 {
+        self.first_scan
     }
 
     /// The configuration in use.
@@ -290,22 +380,40 @@ impl Mapper {
 
     /// Integrates one prepared scan; afterwards [`Mapper::map`] is `G_t`.
     pub fn push_prepared(&mut self, scan: PreparedScan) -> Update {
-        let t = self.scans;
+        let i = self.scans;
+        let t = self.first_scan.saturating_add(i);
         let clock = Instant::now();
         let (guess, anchor) = self.guess(scan.odom_from_robot);
-        let (align, tracking) = self.align(&scan, guess, anchor);
+        let placing = self.placement != Placement::Placed;
+        let (align, tracking) = match placing {
+            true => self.place(&scan),
+            false => self.align(&scan, guess, anchor),
+        };
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
         // A lost scan keeps its (poor) fit, the best guess there is, but stays out of the map.
-        let fallback = if self.map.is_empty() { guess } else { anchor };
+        let fallback = match self.placement {
+            Placement::Near(start) => start,
+            _ if self.map.is_empty() || placing => guess,
+            _ => anchor,
+        };
         let pose = align.map_or(fallback, |a| a.map_from_robot);
-        if let Some(last) = self.last_pose {
-            self.recent.push(&last, &pose);
-        }
-        self.prev_pose = self.last_pose.replace(pose);
-        self.last_odom = scan.odom_from_robot;
-        self.verdicts.count(t, tracking.verdict);
         let lost = tracking.verdict == Verdict::Lost;
+        // A run on a saved map is placed by its first confident match, or where the user said
+        // it starts; until then nothing of it is tracked from, merged or closed into loops.
+        if placing && (!lost || matches!(self.placement, Placement::Near(_))) {
+            self.placement = Placement::Placed;
+            self.loop_base = t;
+        }
+        let placed = self.placement == Placement::Placed;
+        if placed {
+            if let Some(last) = self.last_pose {
+                self.recent.push(&last, &pose);
+            }
+            self.prev_pose = self.last_pose.replace(pose);
+            self.last_odom = scan.odom_from_robot;
+        }
+        self.verdicts.count(i, tracking.verdict);
         self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
         if !lost {
             let spacing = self.config.tracking.loose_point_spacing_m;
@@ -322,7 +430,8 @@ impl Mapper {
         // which is not where it is sure to be: one wrong scan in the map misleads the next.
         let doubtful = matches!(tracking.reason, Reason::PoorFit | Reason::Ambiguous)
             && !self.config.tracking.merge_doubtful_scans;
-        let scan_in_map: Vec<Segment> = if lost || doubtful {
+        let building = self.role == MapRole::Build;
+        let scan_in_map: Vec<Segment> = if lost || doubtful || !building {
             Vec::new()
         } else {
             scan.segments_in_robot
@@ -330,8 +439,13 @@ impl Mapper {
                 .map(|s| s.transformed(&pose))
                 .collect()
         };
-        let directions =
-            recent_main_directions(&mut self.map, t, &self.config.directions).directions_rad;
+        // A fixed map has nothing to merge into: no directions either.
+        let directions = match building {
+            true => {
+                recent_main_directions(&mut self.map, t, &self.config.directions).directions_rad
+            }
+            false => Vec::new(),
+        };
         let directed = Instant::now();
         let merge = merge_scan(
             &self.config.merge,
@@ -345,9 +459,9 @@ impl Mapper {
         self.scans += 1;
         self.trajectory.push(pose);
         let mut loops = LoopDiagnostics::default();
-        if self.config.loops.enabled {
+        if self.config.loops.enabled && building && placed {
             let correction = self.loops.add_scan(
-                t,
+                t - self.loop_base,
                 pose,
                 &scan.points_in_robot,
                 &scan.segments_in_robot,
@@ -376,10 +490,61 @@ impl Mapper {
             tracking,
         };
         Update {
-            scan_index: t,
+            scan_index: i,
             map_from_robot: pose,
             diagnostics,
         }
+    }
+
+    /// Places a scan of a run on a saved map: ICP from the best few peaks of a global search
+    /// (or of a search near the user's start), the best fit kept. The verdict is lost unless
+    /// the fit is confident in every direction and no distinct pose explains the scan about as
+    /// well ([`crate::align::TrackParams::ambiguous_above`] of its inliers).
+    fn place(&self, scan: &PreparedScan) -> (Option<AlignResult>, Tracking) {
+        let params = &self.config.tracking;
+        let points = thin_points(&scan.points_in_robot, self.config.align.point_spacing_m);
+        let hint = match self.placement {
+            Placement::Near(start) => Some((start, NEAR_START_M, NEAR_START_DEG.to_radians())),
+            _ => None,
+        };
+        let results: Vec<AlignResult> = global_peaks(&self.map, &points, hint, PLACE_PEAKS, params)
+            .iter()
+            .map(|c| self.run_icp(scan, &points, c.map_from_robot, c.map_from_robot))
+            .collect();
+        let Some(best) = results
+            .iter()
+            .copied()
+            .reduce(|best, r| if better(&r, &best) { r } else { best })
+        else {
+            let reason = match points.is_empty() {
+                true => Reason::NoPoints,
+                false => Reason::NotFound,
+            };
+            let tracking = Tracking {
+                verdict: Verdict::Lost,
+                reason,
+                searched: true,
+                ..Tracking::default()
+            };
+            return (None, tracking);
+        };
+        let apart = |r: &AlignResult| {
+            let d = best.map_from_robot.between(&r.map_from_robot);
+            d.translation().length() > params.rival_apart_m
+                || d.theta_rad.abs() > params.rival_apart_deg.to_radians()
+        };
+        let rival = results.iter().filter(|r| apart(r)).map(|r| r.inliers).max();
+        let mut tracking = verdict(Some(&best), points.len(), false, params);
+        tracking.searched = true;
+        tracking.search_won = true;
+        if rival.is_some_and(|n| n as f64 >= params.ambiguous_above * best.inliers as f64) {
+            tracking.verdict = Verdict::Lost;
+            tracking.reason = Reason::Ambiguous;
+        } else if tracking.verdict != Verdict::Ok {
+            tracking.verdict = Verdict::Lost;
+            tracking.reason = Reason::NotFound;
+        }
+        (Some(best), tracking)
     }
 
     /// ICP from the best pose (and its rival, if any) of a window search over the whole circle
@@ -419,9 +584,13 @@ impl Mapper {
             return;
         };
         let ns = self.config.loops.node_scans;
-        let first_scan = (c.first_node as u64 * ns as u64).min(u32::MAX as u64) as u32;
+        // Node 0 starts at the map's scan `loop_base` (0 for a new map): segments born before
+        // it (an earlier run's) never move.
+        let base = self.loop_base;
+        let first_scan =
+            (base as u64 + c.first_node as u64 * ns as u64).min(u32::MAX as u64) as u32;
         let delta = |t: u32| {
-            let n = (t / ns) as usize;
+            let n = (t.saturating_sub(base) / ns) as usize;
             n.checked_sub(c.first_node)
                 .and_then(|i| c.new_from_old.get(i).copied())
                 .unwrap_or(last)
@@ -446,15 +615,16 @@ impl Mapper {
         for (_, segment, born_scan) in moved {
             self.map.insert(MapSegment { segment, born_scan });
         }
-        for (t, pose) in self
+        let run_first = self.first_scan;
+        for (i, pose) in self
             .trajectory
             .iter_mut()
             .enumerate()
-            .skip(first_scan as usize)
+            .skip(first_scan.saturating_sub(run_first) as usize)
         {
-            *pose = delta(t as u32).compose(pose);
+            *pose = delta(run_first.saturating_add(i as u32)).compose(pose);
         }
-        let t = self.scans.saturating_sub(1);
+        let t = (run_first + self.scans).saturating_sub(1);
         self.last_pose = self.last_pose.map(|p| delta(t).compose(&p));
         self.prev_pose = self
             .prev_pose
@@ -741,7 +911,7 @@ impl Mapper {
 fn best_scoring(
     starts: &[Pose2],
     points: &[Vec2],
-    map: &GlobalMap,
+    map: &impl crate::align::SegmentLookup,
     params: &AlignParams,
     margin: f64,
 ) -> Pose2 {
