@@ -399,7 +399,7 @@ fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
         "{} scans, {} points -> {} segments in {} polylines; {:.2} s ({:.0} scans/s); wrote {}",
         scans,
         run.valid_returns,
-        run.mapper.map().len(),
+        run.mapper.segments().len(),
         run.mapper.polylines().len(),
         elapsed,
         scans as f64 / elapsed.max(1e-9),

@@ -369,8 +369,11 @@ mod tests {
             segment(0.0, 0.0, 1.0, 0.0, 0),
             segment(1.0, 0.0, 1.0, 2.5, 3),
             segment(-0.1, 1e-7, 123456.789, -0.3333333333333333, 42),
+            // Read back wrong in the last digit by serde_json's default float parser (found
+            // in Intel's map): a saved map must come back exactly (`float_roundtrip`).
+            segment(2.5821710003345766, -12.443522198055373, 0.0, 0.0, 43),
         ];
-        MapJson::new(FRAME_ODOMETRY, &segments, &[vec![0, 1], vec![2]])
+        MapJson::new(FRAME_ODOMETRY, &segments, &[vec![0, 1], vec![2, 3]])
     }
 
     #[test]
@@ -439,7 +442,7 @@ mod tests {
     #[test]
     fn contract_violations_are_errors() {
         let mut map = sample();
-        map.polylines.push(vec![3]);
+        map.polylines.push(vec![4]);
         assert!(matches!(
             write_map_json_to(Vec::new(), "m", &map),
             Err(MapJsonError::Invalid { .. })

@@ -231,7 +231,7 @@ pub fn summary_json(
         "log": log,
         "scans": scans,
         "points": points,
-        "segments": run.mapper.map().len(),
+        "segments": run.mapper.segments().len(),
         "polylines": run.mapper.polylines().len(),
         "elapsed_s": elapsed_s,
         "scans_per_s": if elapsed_s > 0.0 { scans as f64 / elapsed_s } else { 0.0 },

@@ -27,13 +27,14 @@ pub const GLOBAL_SEARCH_POINTS: usize = 200;
 /// is given (within `hint_m` and `hint_rad`), best first. Empty for an empty map or scan, or
 /// when nothing scores [`GLOBAL_MIN_SCORE`].
 ///
-/// Points farther than `tracking.search_max_range_m` are left out when enough are nearer (a
-/// far point needs a finer rotation step: the search's cost).
+/// Points farther than `max_range_m` are left out when enough are nearer (a far point needs a
+/// finer rotation step: the search's cost).
 pub fn global_peaks(
     map: &GlobalMap,
     points_in_robot: &[Vec2],
     hint: Option<(Pose2, f64, f64)>,
     max_peaks: usize,
+    max_range_m: f64,
     params: &TrackParams,
 ) -> Vec<Candidate> {
     let Some((lo, hi)) = map_bounds(map) else {
@@ -42,7 +43,7 @@ pub fn global_peaks(
     let near: Vec<Vec2> = points_in_robot
         .iter()
         .copied()
-        .filter(|p| p.length() <= params.search_max_range_m)
+        .filter(|p| p.length() <= max_range_m)
         .collect();
     let points = if near.len() >= 20 {
         &near[..]
@@ -169,7 +170,7 @@ mod tests {
             Pose2::new(5.0, 7.5, 3.0),
         ] {
             let points = scan_from(&walls, truth);
-            let peaks = global_peaks(&map, &points, None, 3, &params);
+            let peaks = global_peaks(&map, &points, None, 3, 8.0, &params);
             let best = peaks.first().expect("a peak").map_from_robot;
             let d = truth.between(&best);
             assert!(
@@ -186,7 +187,7 @@ mod tests {
         let params = TrackParams::default();
         let truth = Pose2::new(2.0, 2.0, 0.3);
         let points = scan_from(&walls, truth);
-        let near = global_peaks(&map, &points, Some((truth, 0.5, 0.2)), 1, &params);
+        let near = global_peaks(&map, &points, Some((truth, 0.5, 0.2)), 1, 8.0, &params);
         assert!(
             near[0]
                 .map_from_robot
@@ -196,13 +197,13 @@ mod tests {
         );
         // A window far from the truth cannot hold it.
         let far = Pose2::new(10.0, 2.0, 0.3);
-        let elsewhere = global_peaks(&map, &points, Some((far, 0.5, 0.2)), 1, &params);
+        let elsewhere = global_peaks(&map, &points, Some((far, 0.5, 0.2)), 1, 8.0, &params);
         assert!(
             elsewhere
                 .iter()
                 .all(|c| c.map_from_robot.translation().distance(truth.translation()) > 7.0)
         );
-        assert!(global_peaks(&GlobalMap::new(1.0, 1.0), &points, None, 3, &params).is_empty());
-        assert!(global_peaks(&map, &[], None, 3, &params).is_empty());
+        assert!(global_peaks(&GlobalMap::new(1.0, 1.0), &points, None, 3, 8.0, &params).is_empty());
+        assert!(global_peaks(&map, &[], None, 3, 8.0, &params).is_empty());
     }
 }
