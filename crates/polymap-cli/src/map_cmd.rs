@@ -10,10 +10,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use polymap::align::Verdict;
 use polymap::config::Config;
 use polymap::geometry::Pose2;
+use polymap::loops::SavedNode;
 use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
 use polymap_export::formats::Format;
 use polymap_io::carmen::CarmenStats;
 use polymap_io::log::{LogOptions, LogSource};
+use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_pipeline::folder::{
@@ -35,6 +37,8 @@ const MAX_PICTURE_POINTS: usize = 200_000;
 struct SavedMap {
     dir: PathBuf,
     map: MapJson,
+    /// The saved run's loop-closure nodes (empty when it saved none).
+    nodes: Vec<SavedNode>,
     role: MapRole,
 }
 
@@ -51,9 +55,24 @@ impl SavedMap {
             "{}: the saved map has no segments: nothing to place the log in",
             quoted(&dir.join("map.json").display().to_string())
         );
+        // Without its loop nodes (a map from an older polymap, or merged) the map is still
+        // continued; loops then close only among the new scans.
+        let nodes_path = dir.join(LOOP_NODES_FILE);
+        let nodes = match nodes_path.is_file() {
+            true => read_loop_nodes(&nodes_path)?,
+            false => {
+                eprintln!(
+                    "polymap: note: no {LOOP_NODES_FILE} in {}: loops will close among the new \
+                     scans only",
+                    quoted(&dir.display().to_string())
+                );
+                Vec::new()
+            }
+        };
         Ok(SavedMap {
             dir: dir.to_path_buf(),
             map,
+            nodes,
             role,
         })
     }
@@ -62,6 +81,7 @@ impl SavedMap {
         let prior = PriorMap {
             segments: self.map.map_segments(),
             scans: self.map.scans_mapped(),
+            nodes: self.nodes.clone(),
         };
         Mapper::on_map(config.clone(), prior, self.role, start)
     }
@@ -144,8 +164,10 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         record.valid_returns,
         reader,
     );
+    let loop_nodes = record.mapper.loop_nodes();
     let written = folder.write_run(&RunFiles {
         snapshot: &snapshot,
+        loop_nodes: &loop_nodes,
         summary: &summary,
         history: &record.history,
         formats: &a.export,

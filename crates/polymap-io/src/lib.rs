@@ -33,6 +33,7 @@
 pub mod atomic;
 pub mod carmen;
 pub mod log;
+pub mod loop_nodes;
 pub mod map_json;
 pub mod printable;
 pub mod ros;

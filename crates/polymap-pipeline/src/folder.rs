@@ -15,6 +15,7 @@ use polymap_export::formats::{ExportInput, Format, export};
 use polymap_export::report::ReportData;
 use polymap_export::svg::{SvgStyle, write_svg};
 use polymap_io::atomic::{check_writable_dir, write_bytes_atomic};
+use polymap_io::loop_nodes::{LOOP_NODES_FILE, write_loop_nodes};
 use polymap_io::map_json::{MapJsonError, write_map_json};
 use polymap_io::snapshot::{MapSnapshot, ScanPoints};
 use polymap_io::tum::{TumError, write_tum};
@@ -23,10 +24,11 @@ use serde_json::json;
 use crate::pipeline::RunRecord;
 
 /// The files every run writes, in the order written.
-pub const RUN_FILES: [&str; 5] = [
+pub const RUN_FILES: [&str; 6] = [
     "map.json",
     "trajectory.tum",
     "summary.json",
+    "loop_nodes.json",
     "map.svg",
     "history.json",
 ];
@@ -151,6 +153,7 @@ impl RunFolder {
         write_map_json(d.join("map.json"), &run.snapshot.map_json())?;
         write_tum(d.join("trajectory.tum"), &run.snapshot.trajectory)?;
         self.write_json(&d.join("summary.json"), run.summary, true)?;
+        write_loop_nodes(d.join(LOOP_NODES_FILE), &run.snapshot.frame, run.loop_nodes)?;
         write_svg(&d.join("map.svg"), run.snapshot, &SvgStyle::default())?;
         self.write_json(&d.join("history.json"), run.history, false)?;
         let input = ExportInput {
@@ -192,6 +195,8 @@ pub struct RunFiles<'a> {
     pub summary: &'a serde_json::Value,
     /// `history.json`, and the report's data.
     pub history: &'a ReportData,
+    /// `loop_nodes.json`: the loop-closure nodes, for a run that continues the map.
+    pub loop_nodes: &'a [polymap::loops::SavedNode],
     /// The exports asked for.
     pub formats: &'a [Format],
     /// The run's rays for the occupancy grid.

@@ -85,8 +85,11 @@ fn resume_continues_a_map_in_its_frame_and_numbers_scans_on() {
     let (out_a, out_ab) = (dir.path().join("A"), dir.path().join("AB"));
     let o = map_quietly(&a, &out_a, &[]);
     assert!(o.status.success(), "{}", text(&o));
+    // The saved run kept its loop nodes, and the resumed run took them.
+    assert!(out_a.join("loop_nodes.json").is_file());
     let o = map_quietly(&b, &out_ab, &["--resume", out_a.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
+    assert!(!String::from_utf8_lossy(&o.stderr).contains("note"), "{}", text(&o));
 
     let summary = json(&out_ab.join("summary.json"));
     assert_eq!(summary["placed"], true);
@@ -117,6 +120,13 @@ fn resume_continues_a_map_in_its_frame_and_numbers_scans_on() {
         n_ab as f64 <= 1.15 * n_full as f64,
         "{n_ab} segments resumed against {n_full} in one run"
     );
+    // A map without its loop nodes (an older polymap's) is continued all the same, and says
+    // what it cannot do.
+    std::fs::remove_file(out_a.join("loop_nodes.json")).unwrap();
+    let o = map_quietly(&b, &dir.path().join("AB2"), &["--resume", out_a.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("no loop_nodes.json"), "{err}");
 }
 
 #[test]

@@ -19,6 +19,16 @@ struct OpenNode {
     cells: rustc_hash::FxHashSet<(i64, i64)>,
 }
 
+/// A node of a saved map's loop closure: what a run that continues the map needs of it to
+/// close loops into it (its submap's segments; its points are only matched when it is new).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SavedNode {
+    /// The node's pose (its first scan's), map frame, after every correction.
+    pub pose: Pose2,
+    /// Its submap's segments, in the node's frame, metres.
+    pub segments: Vec<Segment>,
+}
+
 /// Loop closure for the mapper: node bookkeeping on the mapper's side, the pose graph on a
 /// second thread (with `background`).
 ///
@@ -35,6 +45,8 @@ pub struct LoopCloser {
     loop_edges: usize,
     /// The first failure of the graph's work; loop closure stops there.
     failure: Option<LoopFailure>,
+    /// Nodes of a saved map before this run's first node (0 for a new map).
+    first_new: usize,
 }
 
 impl LoopCloser {
@@ -58,12 +70,62 @@ impl LoopCloser {
             open: OpenNode::default(),
             loop_edges: 0,
             failure: None,
+            first_new: 0,
         }
     }
 
-    /// The node that scan `t` belongs to.
+    /// Loop closure that goes on from a saved map's nodes: this run's nodes are matched
+    /// against them too, and they never move (nor does this run's first node, where it
+    /// placed itself in the map).
+    pub fn continuing(
+        params: LoopParams,
+        align: AlignParams,
+        grid_cell_m: f64,
+        saved: Vec<SavedNode>,
+    ) -> Self {
+        let mut closer = Self::new(params, align, grid_cell_m);
+        if saved.is_empty() {
+            return closer;
+        }
+        closer.first_new = saved.len();
+        closer.poses = saved.iter().map(|n| n.pose).collect();
+        let mut graph = closer.worker.read(|g| g.clone());
+        graph.fixed = saved.len() + 1;
+        for node in saved {
+            graph.poses.push(node.pose);
+            graph.submaps.push(Submap {
+                points: Vec::new(),
+                segments: node.segments,
+            });
+        }
+        closer.worker = Worker::new(graph, closer.params.background);
+        closer
+    }
+
+    /// The nodes to save for a run that continues the map: every completed node (a saved
+    /// map's too), at its corrected pose. Call after [`LoopCloser::finish`].
+    pub fn saved_nodes(&self) -> Vec<SavedNode> {
+        self.worker.read(|g| {
+            self.poses
+                .iter()
+                .zip(&g.submaps)
+                .map(|(pose, submap)| SavedNode {
+                    pose: *pose,
+                    segments: submap.segments.clone(),
+                })
+                .collect()
+        })
+    }
+
+    /// The first node of this run (the nodes before it are a saved map's).
+    pub fn first_new_node(&self) -> usize {
+        self.first_new
+    }
+
+    /// The node that scan `t` of this run belongs to (`t` counted from the scan where loop
+    /// closure starts).
     pub fn node_of(&self, t: u32) -> usize {
-        (t / self.params.node_scans) as usize
+        self.first_new + (t / self.params.node_scans) as usize
     }
 
     /// The failure that stopped loop closure, if one did (a panic while matching or
@@ -105,8 +167,10 @@ impl LoopCloser {
         let ns = self.params.node_scans;
         let k = self.node_of(t);
         if self.poses.len() <= k {
+            // A saved map's last node is no neighbour of this run's first: no motion joins them.
+            let previous = self.poses.last().filter(|_| k > self.first_new);
             self.open = OpenNode {
-                from_previous: self.poses.last().map(|last| last.between(&map_from_robot)),
+                from_previous: previous.map(|last| last.between(&map_from_robot)),
                 ..OpenNode::default()
             };
             self.poses.push(map_from_robot);

@@ -41,7 +41,7 @@ mod worker;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::Pose2;
-pub use closer::LoopCloser;
+pub use closer::{LoopCloser, SavedNode};
 pub use graph::Edge;
 pub use params::{LoopParams, MAX_SEARCH_STARTS};
 

@@ -46,6 +46,9 @@ pub(super) struct NodeGraph {
     pub(super) last_closed: Option<usize>,
     /// Loop edges that would bend the graph a lot, waiting for a second that agrees.
     pub(super) held: Vec<Edge>,
+    /// Nodes below this never move: node 0 (the map frame), or the nodes of a saved map and
+    /// the first node of the run that continues it.
+    pub(super) fixed: usize,
 }
 
 /// What the graph did with one node: loop edges found, and the optimised poses of nodes
@@ -73,6 +76,7 @@ impl NodeGraph {
             edges: Vec::new(),
             last_closed: None,
             held: Vec::new(),
+            fixed: 1,
         }
     }
 
@@ -87,8 +91,9 @@ impl NodeGraph {
         out.diagnostics.held = self.held.len();
         let optimize_from = self.take_edges(k, take, &mut out.diagnostics);
         out.diagnostics.match_s = clock.elapsed().as_secs_f64();
-        // Node 0 holds the map frame (the first scan's pose): it never moves.
-        let Some(first) = optimize_from.map(|f| f.max(1)) else {
+        // Node 0 holds the map frame (the first scan's pose): it never moves; nor do a saved
+        // map's nodes, nor the node where a run continuing it placed itself.
+        let Some(first) = optimize_from.map(|f| f.max(self.fixed)) else {
             return out;
         };
         if first > k {

@@ -113,6 +113,13 @@ impl Worker {
     }
 }
 
+impl Worker {
+    /// Reads the graph (waiting for the thread's work on it to finish).
+    pub(super) fn read<R>(&self, f: impl FnOnce(&NodeGraph) -> R) -> R {
+        f(&lock(&self.graph))
+    }
+}
+
 /// The graph, also after a panic while it was locked (the failure is published, and loop
 /// closure stops: see [`super::LoopCloser::failure`]).
 fn lock(graph: &Mutex<NodeGraph>) -> std::sync::MutexGuard<'_, NodeGraph> {

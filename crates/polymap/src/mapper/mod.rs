@@ -19,7 +19,7 @@ use crate::config::Config;
 use crate::directions::recent_main_directions;
 use crate::extract::{extract_segments, extract_segments_closed};
 use crate::geometry::{Pose2, Segment, Vec2};
-use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure};
+use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, SavedNode};
 use crate::map::{GlobalMap, MapSegment};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
@@ -108,6 +108,9 @@ pub struct PriorMap {
     /// Scans mapped into it so far, over all its runs: the new run's scans are numbered on
     /// from here (their segments' `born_scan`), and nothing born before moves.
     pub scans: u32,
+    /// Its loop-closure nodes ([`Mapper::loop_nodes`] of the run that made it), for loops
+    /// between the old and the new parts; empty when not saved.
+    pub nodes: Vec<SavedNode>,
 }
 
 /// What a run does with its map.
@@ -256,6 +259,13 @@ impl Mapper {
     /// An empty prior map is a new map.
     pub fn on_map(config: Config, prior: PriorMap, role: MapRole, start: Option<Pose2>) -> Self {
         let mut mapper = Mapper::new(config);
+        let c = &mapper.config;
+        mapper.loops = LoopCloser::continuing(
+            c.loops.clone(),
+            c.align.clone(),
+            c.map.grid_cell_m,
+            prior.nodes,
+        );
         if role == MapRole::Localize {
             mapper.saved = Some(prior.segments.clone());
         }
@@ -272,6 +282,13 @@ impl Mapper {
             };
         }
         mapper
+    }
+
+    /// The loop-closure nodes to save with the map, for a run that continues it (see
+    /// [`PriorMap::nodes`]): a saved map's and this run's, at their corrected poses. Call after
+    /// [`Mapper::finish`].
+    pub fn loop_nodes(&self) -> Vec<SavedNode> {
+        self.loops.saved_nodes()
     }
 
     /// Whether the run has placed itself in its map (always, for a new map).
@@ -674,10 +691,11 @@ impl Mapper {
         // Node 0 starts at the map's scan `loop_base` (0 for a new map): segments born before
         // it (an earlier run's) never move.
         let base = self.loop_base;
-        let first_scan =
-            (base as u64 + c.first_node as u64 * ns as u64).min(u32::MAX as u64) as u32;
+        let first_new = self.loops.first_new_node();
+        let nodes_in = c.first_node.saturating_sub(first_new) as u64;
+        let first_scan = (base as u64 + nodes_in * ns as u64).min(u32::MAX as u64) as u32;
         let delta = |t: u32| {
-            let n = (t.saturating_sub(base) / ns) as usize;
+            let n = first_new + (t.saturating_sub(base) / ns) as usize;
             n.checked_sub(c.first_node)
                 .and_then(|i| c.new_from_old.get(i).copied())
                 .unwrap_or(last)

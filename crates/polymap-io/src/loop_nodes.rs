@@ -1,0 +1,232 @@
+//! `loop_nodes.json`: the loop-closure nodes of a run, kept so that a run continuing the map
+//! (`--resume`) closes loops into the old part of it, not only among its own scans.
+//!
+//! ```json
+//! {"version": 1, "units": "m", "frame": "first_scan",
+//! "nodes": [
+//!   {"pose": [x, y, yaw], "segments": [[x0, y0, x1, y1], ...]},
+//!   ...
+//! ]}
+//! ```
+//!
+//! One node per line: its pose (metres, metres, radians; map frame, after every correction)
+//! and its submap's segments in the node's own frame (metres). Documented for users in
+//! `docs/MAP_FORMAT.md`. A newer version than [`VERSION`] is refused with a message naming it.
+//!
+//! ```
+//! use polymap::geometry::{Pose2, Segment, Vec2};
+//! use polymap::loops::SavedNode;
+//! use polymap_io::loop_nodes::{read_loop_nodes_from, write_loop_nodes_to};
+//! let nodes = [SavedNode {
+//!     pose: Pose2::new(1.0, 2.0, 0.5),
+//!     segments: vec![Segment::new(Vec2::ZERO, Vec2::new(3.0, 0.0))],
+//! }];
+//! let mut bytes = Vec::new();
+//! write_loop_nodes_to(&mut bytes, "loop_nodes.json", "first_scan", &nodes).unwrap();
+//! let back = read_loop_nodes_from(&bytes[..], "loop_nodes.json").unwrap();
+//! assert_eq!(back, nodes);
+//! ```
+
+use std::io::{Read, Write};
+use std::path::Path;
+
+use polymap::geometry::{Pose2, Segment, Vec2};
+use polymap::loops::SavedNode;
+use serde::{Deserialize, Serialize};
+
+use crate::map_json::{MapJsonError, UNITS_METRES};
+
+/// The file's name in a run folder.
+pub const LOOP_NODES_FILE: &str = "loop_nodes.json";
+/// The format version written, and the newest read.
+pub const VERSION: u32 = 1;
+
+#[derive(Debug, Serialize, Deserialize)]
+struct Document {
+    version: u32,
+    units: String,
+    frame: String,
+    nodes: Vec<NodeJson>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct NodeJson {
+    pose: [f64; 3],
+    segments: Vec<[f64; 4]>,
+}
+
+/// Writes `nodes` (map frame named `frame`) to a file atomically.
+pub fn write_loop_nodes(
+    path: impl AsRef<Path>,
+    frame: &str,
+    nodes: &[SavedNode],
+) -> Result<(), MapJsonError> {
+    let path = path.as_ref();
+    crate::atomic::write_atomic_with(
+        path,
+        |out| write_loop_nodes_to(out, path, frame, nodes),
+        |source| MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+    )
+}
+
+/// Writes `nodes` to `out`, one node per line; `path` names it in errors.
+pub fn write_loop_nodes_to(
+    mut out: impl Write,
+    path: impl AsRef<Path>,
+    frame: &str,
+    nodes: &[SavedNode],
+) -> Result<(), MapJsonError> {
+    let path = path.as_ref();
+    let json = |e: serde_json::Error| MapJsonError::Invalid {
+        path: path.to_path_buf(),
+        problem: e.to_string(),
+    };
+    let mut text = format!(
+        "{{\"version\": {VERSION}, \"units\": {}, \"frame\": {},\n\"nodes\": [",
+        serde_json::to_string(UNITS_METRES).map_err(json)?,
+        serde_json::to_string(frame).map_err(json)?
+    );
+    for (i, n) in nodes.iter().enumerate() {
+        if !(n.pose.is_finite() && n.segments.iter().all(|s| s.is_finite())) {
+            return Err(MapJsonError::Invalid {
+                path: path.to_path_buf(),
+                problem: format!("node {i} has a non-finite pose or segment"),
+            });
+        }
+        let node = NodeJson {
+            pose: [n.pose.x_m, n.pose.y_m, n.pose.theta_rad],
+            segments: n
+                .segments
+                .iter()
+                .map(|s| [s.start.x, s.start.y, s.end.x, s.end.y])
+                .collect(),
+        };
+        text.push_str(if i == 0 { "\n  " } else { ",\n  " });
+        text.push_str(&serde_json::to_string(&node).map_err(json)?);
+    }
+    if !nodes.is_empty() {
+        text.push('\n');
+    }
+    text.push_str("]}\n");
+    out.write_all(text.as_bytes())
+        .map_err(|source| MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
+}
+
+/// Reads a `loop_nodes.json` file.
+pub fn read_loop_nodes(path: impl AsRef<Path>) -> Result<Vec<SavedNode>, MapJsonError> {
+    let path = path.as_ref();
+    let file = std::fs::File::open(path).map_err(|source| MapJsonError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    read_loop_nodes_from(std::io::BufReader::new(file), path)
+}
+
+/// Reads a `loop_nodes.json` document from `input`; `path` names it in errors.
+pub fn read_loop_nodes_from(
+    mut input: impl Read,
+    path: impl AsRef<Path>,
+) -> Result<Vec<SavedNode>, MapJsonError> {
+    let path = path.as_ref();
+    let invalid = |problem: String| MapJsonError::Invalid {
+        path: path.to_path_buf(),
+        problem,
+    };
+    let mut text = String::new();
+    input
+        .read_to_string(&mut text)
+        .map_err(|source| MapJsonError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    #[derive(Deserialize)]
+    struct Version {
+        version: u32,
+    }
+    if let Ok(v) = serde_json::from_str::<Version>(&text)
+        && (v.version == 0 || v.version > VERSION)
+    {
+        return Err(invalid(format!(
+            "loop_nodes.json version {} is not one this polymap reads (versions 1 to {VERSION})",
+            v.version
+        )));
+    }
+    let doc: Document = serde_json::from_str(&text).map_err(|source| MapJsonError::Json {
+        path: path.to_path_buf(),
+        line: source.line(),
+        column: source.column(),
+        source,
+    })?;
+    if doc.units != UNITS_METRES {
+        return Err(invalid(format!(
+            "units must be \"m\", found {:?}",
+            doc.units
+        )));
+    }
+    doc.nodes
+        .into_iter()
+        .enumerate()
+        .map(|(i, n)| {
+            let pose = Pose2::new(n.pose[0], n.pose[1], n.pose[2]);
+            let segments: Vec<Segment> = n
+                .segments
+                .iter()
+                .map(|s| Segment::new(Vec2::new(s[0], s[1]), Vec2::new(s[2], s[3])))
+                .collect();
+            if pose.is_finite() && segments.iter().all(|s| s.is_finite()) {
+                Ok(SavedNode { pose, segments })
+            } else {
+                Err(invalid(format!(
+                    "node {i} has a non-finite pose or segment"
+                )))
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trip_is_exact_and_bad_files_are_named() {
+        let nodes = vec![
+            SavedNode {
+                pose: Pose2::new(2.5821710003345766, -12.443522198055373, -3.1),
+                segments: vec![Segment::new(
+                    Vec2::new(0.1, 0.2),
+                    Vec2::new(-1.0 / 3.0, 4.0),
+                )],
+            },
+            SavedNode {
+                pose: Pose2::IDENTITY,
+                segments: Vec::new(),
+            },
+        ];
+        let mut bytes = Vec::new();
+        write_loop_nodes_to(&mut bytes, "n.json", "odometry", &nodes).unwrap();
+        assert_eq!(read_loop_nodes_from(&bytes[..], "n.json").unwrap(), nodes);
+        assert_eq!(String::from_utf8(bytes).unwrap().lines().count(), 5);
+        let newer = r#"{"version": 4, "nodes": "packed"}"#;
+        let err = read_loop_nodes_from(newer.as_bytes(), "n.json").unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("n.json: loop_nodes.json version 4"),
+            "{err}"
+        );
+        let cut = r#"{"version": 1, "units": "m", "frame": "x", "nodes": [{"pose": [1, 2"#;
+        assert!(matches!(
+            read_loop_nodes_from(cut.as_bytes(), "n.json"),
+            Err(MapJsonError::Json { .. })
+        ));
+        let mut bad = nodes.clone();
+        bad[0].pose.x_m = f64::NAN;
+        assert!(write_loop_nodes_to(Vec::new(), "n", "x", &bad).is_err());
+    }
+}
