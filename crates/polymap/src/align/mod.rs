@@ -30,10 +30,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
-use crate::grid::NearestCertificate;
+use crate::segment_index::NearestCertificate;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
-pub use nearest::{NearestSegment, SegmentIndex};
 pub use point_to_segment::{align_points, thin_points};
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
