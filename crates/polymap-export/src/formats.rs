@@ -100,7 +100,7 @@ pub fn export(formats: &[Format], input: &ExportInput<'_>) -> Result<Vec<PathBuf
                         what: "the replay history (history.json)".to_owned(),
                     });
                 };
-                write_report_html(&path, history)?;
+                write_report_html(&path, input.snapshot, history)?;
                 written.push(path);
             }
             Format::Pgm => {

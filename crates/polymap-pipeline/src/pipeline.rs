@@ -404,14 +404,12 @@ impl Recorder {
         for (p, q) in self.trajectory.iter_mut().zip(self.mapper.trajectory()) {
             p.map_from_robot = *q;
         }
-        let segments = self.mapper.segments();
-        let polylines = self.mapper.polylines();
         let content = SnapshotContent::of_map(
-            &segments,
+            &self.mapper.segments(),
             self.mapper.scans(),
             &self.mapper.config().directions,
         );
-        let history = self.history.finish(segments, polylines, content);
+        let history = self.history.finish(content);
         Ok(RunRecord {
             mapper: self.mapper,
             trajectory: self.trajectory,

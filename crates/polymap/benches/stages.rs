@@ -14,7 +14,8 @@
 //! - `icp`: `align::thin_points`; one `align::align_points` run from the constant-velocity guess
 //!   against the `GlobalMap` (`Mapper::push` runs it up to twice: also from the anchor); and the
 //!   nearest-segment query that dominates ICP, for every thinned point at the 1 m gate, through
-//!   `GlobalMap` (the `SegmentLookup` ICP uses) and through a prebuilt `align::SegmentIndex`.
+//!   `GlobalMap` (the `SegmentLookup` ICP uses; the index's rivals are compared in
+//!   `benches/segment_index.rs`).
 //! - `directions`: `directions::main_directions` over the segments born in the last `tm` scans.
 //! - `merge`: `merge::insert_vertices`, `merge::restrictive_pairing` and `merge::simplify`, on
 //!   the map near the scan (as the mapper takes it) and the aligned scan segments; and the
@@ -34,7 +35,7 @@ use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{BatchSize, BenchmarkGroup, Criterion, Throughput, measurement::WallTime};
-use polymap::align::{SegmentIndex, SegmentLookup, align_points, thin_points};
+use polymap::align::{SegmentLookup, align_points, thin_points};
 use polymap::config::Config;
 use polymap::directions::main_directions;
 use polymap::extract::extract_segments;
@@ -121,21 +122,6 @@ fn bench_icp(c: &mut Criterion, sources: &[Source]) {
                     for p in &st.thinned {
                         let q = st.pose.transform_point(*p);
                         black_box(st.mapper.map().nearest_segment(q, params.initial_gate_m));
-                    }
-                }
-            })
-        });
-        let indexes: Vec<SegmentIndex> = s
-            .steps
-            .iter()
-            .map(|st| SegmentIndex::new(st.mapper.segments().iter().map(|m| m.segment).collect()))
-            .collect();
-        g.bench_function(format!("nearest_segment_index/{}", s.name), |b| {
-            b.iter(|| {
-                for (st, index) in s.steps.iter().zip(&indexes) {
-                    for p in &st.thinned {
-                        let q = st.pose.transform_point(*p);
-                        black_box(index.nearest(q, params.initial_gate_m));
                     }
                 }
             })

@@ -18,7 +18,8 @@
 //! - [`loops`]: loop closure over a pose graph of trajectory stretches (an addition).
 //!
 //! Support: [`geometry`] (points, SE(2) poses, segments, undirected angles), [`map`] (the map
-//! store), [`grid`] (its spatial index), [`config`] (the configuration tree and presets).
+//! store), [`segment_index`] (the workspace's one spatial index over segments: the map's, ICP's,
+//! the merge's and the evaluation's), [`config`] (the configuration tree and presets).
 
 #![deny(missing_docs)]
 #![forbid(unsafe_code)]
@@ -30,7 +31,6 @@ pub mod cost;
 pub mod directions;
 pub mod extract;
 pub mod geometry;
-pub mod grid;
 pub mod loops;
 pub mod map;
 pub mod mapper;
@@ -38,6 +38,7 @@ pub mod merge;
 pub mod motion;
 pub mod polyline;
 pub mod scan;
+pub mod segment_index;
 
 #[cfg(test)]
 mod testutil;

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::align::SegmentLookup;
 use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Segment, SegmentProjection, Vec2};
-use crate::grid::{NearestCertificate, SegmentGrid};
+use crate::segment_index::{NearestCertificate, SegmentIndex};
 
 /// Parameters of the map store (section `[map]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -64,7 +64,7 @@ pub struct SegmentId {
 pub struct GlobalMap {
     slots: Vec<(u32, Option<MapSegment>)>,
     free: Vec<u32>,
-    grid: SegmentGrid<SegmentId>,
+    grid: SegmentIndex<SegmentId>,
     recent: Vec<(u32, SegmentId)>,
     len: usize,
 }
@@ -83,7 +83,7 @@ impl GlobalMap {
         GlobalMap {
             slots: Vec::new(),
             free: Vec::new(),
-            grid: SegmentGrid::new(cell_m, reach_m),
+            grid: SegmentIndex::new(cell_m, reach_m),
             recent: Vec::new(),
             len: 0,
         }

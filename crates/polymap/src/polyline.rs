@@ -7,12 +7,11 @@
 //! endpoints are still free and the join closes no cycle. Pairs further apart than the threshold
 //! are never joined, which is the split.
 
-use rstar::RTree;
-use rstar::primitives::GeomWithData;
 use serde::{Deserialize, Serialize};
 
 use crate::check::{Checks, InvalidParam};
-use crate::geometry::Segment;
+use crate::geometry::{Segment, Vec2};
+use crate::segment_index::BoxIndex;
 
 /// Parameters of polyline grouping.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -62,17 +61,16 @@ pub fn group_polylines(segments: &[Segment], max_gap_m: f64) -> Vec<Vec<usize>> 
             segments[e / 2].end
         }
     };
-    let tree = RTree::bulk_load(
-        (0..2 * n)
-            .map(|e| GeomWithData::new([point(e).x, point(e).y], e))
-            .collect(),
-    );
+    // Endpoints as segments of length zero; the box query's candidates are then measured.
+    let index = BoxIndex::from_keyed((0..2 * n).map(|e| (e, Segment::new(point(e), point(e)))));
+    let max_gap_2 = max_gap_m * max_gap_m;
     let mut joins: Vec<(f64, usize, usize)> = Vec::new();
     for e in 0..2 * n {
         let p = point(e);
-        for o in tree.locate_within_distance([p.x, p.y], max_gap_m * max_gap_m) {
-            if o.data / 2 > e / 2 {
-                joins.push((p.distance(point(o.data)), e, o.data));
+        let reach = Vec2::splat(max_gap_m.abs());
+        for o in index.intersecting_iter(p - reach, p + reach) {
+            if o / 2 > e / 2 && (point(o) - p).length_squared() <= max_gap_2 {
+                joins.push((p.distance(point(o)), e, o));
             }
         }
     }

@@ -5,7 +5,8 @@ use polymap::geometry::{Pose2, Segment, Vec2};
 use polymap::scan::RangeScan;
 use serde::Serialize;
 
-use super::SegmentIndex;
+use super::{CELL_M, REACH_M};
+use polymap::segment_index::SegmentIndex;
 
 /// Settings of [`map_fit_to_points`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -109,7 +110,7 @@ pub fn map_fit_to_points(
     map_from_robot: &[Pose2],
     params: &PointFitParams,
 ) -> PointFit {
-    let index = SegmentIndex::new(map_segments);
+    let index = SegmentIndex::from_segments(map_segments, CELL_M, REACH_M);
     let stride = params.scan_stride.max(1);
     let mut tally = DistanceTally::default();
     let mut scans_used = 0;
@@ -120,12 +121,10 @@ pub fn map_fit_to_points(
         }
         scans_used += 1;
         scan.points_in_robot(&mut p_in_robot);
-        let mut hint = None;
         for p in &p_in_robot {
-            let p_in_map = pose.transform_point(*p);
-            let nearest = index.nearest_with_hint(p_in_map, hint);
-            hint = nearest.map(|n| n.index);
-            tally.add(nearest.map_or(f64::INFINITY, |n| n.distance_m), params);
+            let nearest = index.nearest_anywhere(pose.transform_point(*p));
+            let distance_m = nearest.map_or(f64::INFINITY, |(_, _, pr)| pr.distance_2.sqrt());
+            tally.add(distance_m, params);
         }
     }
     finish(tally, scans_used, index.is_empty(), params)

@@ -3,7 +3,8 @@
 use polymap::geometry::{Pose2, Segment};
 use serde::Serialize;
 
-use super::SegmentIndex;
+use super::{CELL_M, REACH_M};
+use polymap::segment_index::SegmentIndex;
 
 /// Most sample pieces taken along one segment; bounds the work on absurdly long input.
 const MAX_PIECES_PER_SEGMENT: f64 = 1.0e6;
@@ -138,13 +139,13 @@ pub fn map_vs_walls(
     };
     let on_walls = covered_length(
         &map_in_world,
-        &SegmentIndex::new(&all_walls),
+        &SegmentIndex::from_segments(&all_walls, CELL_M, REACH_M),
         params.tolerance_m,
         step_m,
     );
     let mapped = covered_length(
         &recall_walls,
-        &SegmentIndex::new(&map_in_world),
+        &SegmentIndex::from_segments(&map_in_world, CELL_M, REACH_M),
         params.tolerance_m,
         step_m,
     );
@@ -176,7 +177,7 @@ impl Coverage {
 /// whose midpoint is within `tolerance_m` of `others`. Non-finite segments are skipped.
 fn covered_length(
     segments: &[Segment],
-    others: &SegmentIndex,
+    others: &SegmentIndex<usize>,
     tolerance_m: f64,
     step_m: f64,
 ) -> Coverage {
@@ -234,7 +235,7 @@ pub fn align_map_to_walls(map_segments: &[Segment], walls: &[TrueWall]) -> Pose2
     const STEP_M: f64 = 0.05;
     const MAX_SAMPLES: usize = 20_000;
     let wall_segments: Vec<Segment> = walls.iter().map(|w| w.segment).collect();
-    let index = SegmentIndex::new(&wall_segments);
+    let index = SegmentIndex::from_segments(&wall_segments, CELL_M, REACH_M);
     let total_m: f64 = map_segments
         .iter()
         .filter(|s| s.is_finite())
@@ -260,9 +261,9 @@ pub fn align_map_to_walls(map_segments: &[Segment], walls: &[TrueWall]) -> Pose2
         let (mut from, mut to) = (Vec::new(), Vec::new());
         for p in &samples {
             let q = world_from_map.transform_point(*p);
-            if let Some(n) = index.nearest(q).filter(|n| n.distance_m <= gate_m) {
+            if let Some((_, _, projection)) = index.nearest(q, gate_m) {
                 from.push(*p);
-                to.push(wall_segments[n.index].project(q).point);
+                to.push(projection.point);
             }
         }
         let Some(a) = crate::align::align_se2(&from, &to) else {

@@ -1,8 +1,10 @@
-//! Renders [`ReportData`] as one self-contained HTML page: `page.html` with `page.css`,
+//! Renders a run's [`MapSnapshot`] (the final map) and its [`ReportData`] (the replay) as one
+//! self-contained HTML page: `page.html` with `page.css`,
 //! `page.js` and the data (compact JSON, coordinates rounded to millimetres) inlined.
 
 use std::path::Path;
 
+use polymap_io::snapshot::MapSnapshot;
 use serde::Serialize;
 
 use super::{ReportData, SeriesPoint};
@@ -74,10 +76,10 @@ fn series<'a>(
     }
 }
 
-fn polyline_of(data: &ReportData) -> Vec<i64> {
-    let mut of = vec![-1i64; data.final_segments.len()];
-    for (k, polyline) in data.polylines.iter().enumerate().rev() {
-        for &i in polyline {
+fn polyline_of(map: &MapSnapshot) -> Vec<i64> {
+    let mut of = vec![-1i64; map.segments.len()];
+    for (k, polyline) in map.polylines.iter().enumerate().rev() {
+        for &i in &polyline.segments {
             if let Some(slot) = of.get_mut(i) {
                 *slot = i64::try_from(k).unwrap_or(i64::MAX);
             }
@@ -86,7 +88,7 @@ fn polyline_of(data: &ReportData) -> Vec<i64> {
     of
 }
 
-fn payload(data: &ReportData) -> Payload<'_> {
+fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
     let snapshots = data.snapshots.iter().map(|s| SnapshotPayload {
         scan: s.scan_index,
         pose: pose(&s.map_from_robot),
@@ -103,8 +105,8 @@ fn payload(data: &ReportData) -> Payload<'_> {
     Payload {
         title: &data.title,
         total_scans: data.total_scans,
-        final_segments: flat_segments(data.final_segments.iter().map(|m| &m.segment)),
-        polyline_of: polyline_of(data),
+        final_segments: flat_segments(map.segments.iter().map(|m| &m.segment)),
+        polyline_of: polyline_of(map),
         trajectory_scan: data.trajectory.iter().map(|p| p.scan_index).collect(),
         trajectory_pose: data
             .trajectory
@@ -128,8 +130,8 @@ fn pose(p: &polymap::geometry::Pose2) -> [f64; 3] {
 
 /// JSON that is safe inside a `<script>` element: `<`, `>` and `&` only occur inside JSON
 /// strings, where their `\u` escapes mean the same, so `</script>` and `<!--` cannot appear.
-fn script_safe_json(data: &ReportData) -> Result<String, serde_json::Error> {
-    let json = serde_json::to_string(&payload(data))?;
+fn script_safe_json(map: &MapSnapshot, data: &ReportData) -> Result<String, serde_json::Error> {
+    let json = serde_json::to_string(&payload(map, data))?;
     Ok(json
         .replace('<', "\\u003c")
         .replace('>', "\\u003e")
@@ -144,9 +146,12 @@ fn escape_html(text: &str) -> String {
         .replace('"', "&quot;")
 }
 
-/// The report as one self-contained HTML document.
-pub fn render_report_html(data: &ReportData) -> Result<String, ExportError> {
-    let json = script_safe_json(data).map_err(|source| ExportError::Json {
+/// The report as one self-contained HTML document: the final map and its polylines from
+/// `map` (its trajectory is not used: the page's comes with the replay), the replay from
+/// `history`.
+pub fn render_report_html(map: &MapSnapshot, history: &ReportData) -> Result<String, ExportError> {
+    let data = history;
+    let json = script_safe_json(map, data).map_err(|source| ExportError::Json {
         path: Default::default(),
         source,
     })?;
@@ -191,8 +196,12 @@ fn fill(template: &str, values: &[(&str, &str)]) -> String {
 }
 
 /// Writes the report to `path` (conventionally `DIR/report.html`).
-pub fn write_report_html(path: &Path, data: &ReportData) -> Result<(), ExportError> {
-    let html = render_report_html(data).map_err(|e| match e {
+pub fn write_report_html(
+    path: &Path,
+    map: &MapSnapshot,
+    history: &ReportData,
+) -> Result<(), ExportError> {
+    let html = render_report_html(map, history).map_err(|e| match e {
         ExportError::Json { source, .. } => ExportError::Json {
             path: path.to_owned(),
             source,
@@ -213,7 +222,7 @@ mod tests {
             title: "</script><script>alert(1)</script> & <!--".to_owned(),
             ..Default::default()
         };
-        let html = render_report_html(&data).expect("renders");
+        let html = render_report_html(&MapSnapshot::default(), &data).expect("renders");
         assert_eq!(
             html.matches("</script>").count(),
             html.matches("<script").count()
@@ -227,9 +236,33 @@ mod tests {
         assert_eq!(value["title"], serde_json::json!(data.title));
     }
 
+    /// The final map and its polylines come from the snapshot: every segment drawn, each
+    /// coloured by the first polyline holding it, out-of-range indices ignored.
+    #[test]
+    fn the_final_map_comes_from_the_snapshot() {
+        use polymap::geometry::{Segment, Vec2};
+        use polymap::map::MapSegment;
+        let piece = |x: f64| MapSegment {
+            segment: Segment::new(Vec2::new(x, 0.0), Vec2::new(x + 0.5, 0.25)),
+            born_scan: 0,
+        };
+        let map = MapSnapshot::from_parts(
+            vec![piece(0.0), piece(1.0), piece(2.0)],
+            vec![vec![2, 0], vec![9]],
+            &[],
+            Vec::new(),
+        );
+        let history = ReportData::default();
+        let payload = payload(&map, &history);
+        assert_eq!(payload.polyline_of, vec![0, -1, 0]);
+        assert_eq!(payload.final_segments.len(), 12);
+        assert_eq!(&payload.final_segments[4..8], &[1.0, 0.0, 1.5, 0.25]);
+    }
+
     #[test]
     fn the_page_needs_no_network() {
-        let html = render_report_html(&ReportData::default()).expect("renders");
+        let html =
+            render_report_html(&MapSnapshot::default(), &ReportData::default()).expect("renders");
         for banned in ["http://", "https://", "src=", "href=", "@import", "fetch("] {
             assert!(!html.contains(banned), "page contains {banned}");
         }

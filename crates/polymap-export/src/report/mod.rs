@@ -15,6 +15,7 @@
 //! ```
 //! use polymap::geometry::{Pose2, Segment, Vec2};
 //! use polymap_export::report::{ReportBudget, ReportRecorder, ScanStat, SnapshotContent, render_report_html};
+//! use polymap_io::snapshot::MapSnapshot;
 //! let wall = Segment::new(Vec2::new(2.0, -1.0), Vec2::new(2.0, 1.0));
 //! let mut recorder = ReportRecorder::new("demo", ReportBudget::default());
 //! for t in 0..10u32 {
@@ -22,9 +23,9 @@
 //!     let pose = Pose2::new(0.1 * f64::from(t), 0.0, 0.0);
 //!     recorder.record(stat, pose, || SnapshotContent { segments: vec![wall], ..Default::default() });
 //! }
-//! let data = recorder.finish(Vec::new(), Vec::new(), SnapshotContent::default());
+//! let data = recorder.finish(SnapshotContent::default());
 //! assert_eq!(data.trajectory.len(), 10);
-//! let html = render_report_html(&data).unwrap();
+//! let html = render_report_html(&MapSnapshot::default(), &data).unwrap();
 //! assert!(html.contains("id=\"selftest\""));
 //! ```
 
@@ -40,17 +41,15 @@ use polymap::directions::{DirectionParams, main_directions};
 use polymap::geometry::{Pose2, Segment};
 use polymap::map::MapSegment;
 
-/// Everything the report page shows. Coordinates are metres in the map frame.
+/// The replay history the report page shows beside the final map (which it takes from the
+/// run's [`MapSnapshot`](polymap_io::snapshot::MapSnapshot), as every writer does); saved as
+/// `history.json`. Coordinates are metres in the map frame.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct ReportData {
     /// Shown as the page's title (escaped).
     pub title: String,
     /// Number of scans in the run.
     pub total_scans: u32,
-    /// The final map's segments.
-    pub final_segments: Vec<MapSegment>,
-    /// The final map's polylines, as indices into `final_segments` (they choose the colours).
-    pub polylines: Vec<Vec<usize>>,
     /// Robot poses `map_from_robot` in scan order, possibly thinned (each carries its scan).
     pub trajectory: Vec<TrajectoryPose>,
     /// Snapshots of the map `G_t` in scan order; the slider steps through them.

@@ -2,7 +2,6 @@
 //! a [`ReportBudget`] and produces the [`ReportData`] at the end.
 
 use polymap::geometry::Pose2;
-use polymap::map::MapSegment;
 
 use super::decimate::{MinMaxSeries, StrideThinning};
 use super::{
@@ -143,15 +142,9 @@ impl ReportRecorder {
         }
     }
 
-    /// The report data, with the final map (`final_segments`, `polylines` as indices into it)
-    /// and the snapshot content of the final map, added as the last snapshot unless the last
-    /// recorded scan already has one.
-    pub fn finish(
-        self,
-        final_segments: Vec<MapSegment>,
-        polylines: Vec<Vec<usize>>,
-        final_content: SnapshotContent,
-    ) -> ReportData {
+    /// The report data, with the snapshot content of the final map added as the last snapshot
+    /// unless the last recorded scan already has one.
+    pub fn finish(self, final_content: SnapshotContent) -> ReportData {
         let mut snapshots: Vec<Snapshot> =
             self.snapshots.kept.into_iter().map(|(_, s)| s).collect();
         let mut trajectory: Vec<TrajectoryPose> = self
@@ -178,8 +171,6 @@ impl ReportRecorder {
         ReportData {
             title: self.title,
             total_scans: self.scans,
-            final_segments,
-            polylines,
             trajectory,
             snapshots,
             series: ScanSeries {

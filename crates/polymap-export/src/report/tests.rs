@@ -32,10 +32,7 @@ fn record_growing_map(scans: u32, budget: ReportBudget) -> (ReportData, u32) {
         segments: (0..scans).map(wall).collect(),
         ..Default::default()
     };
-    (
-        recorder.finish(Vec::new(), Vec::new(), final_content),
-        built,
-    )
+    (recorder.finish(final_content), built)
 }
 
 #[test]
@@ -145,8 +142,9 @@ fn an_intel_sized_run_renders_to_a_few_megabytes() {
             main_directions_deg: vec![1.25, 91.5],
         });
     }
-    let data = recorder.finish(Vec::new(), Vec::new(), SnapshotContent::default());
-    let html = render_report_html(&data).expect("renders");
+    let data = recorder.finish(SnapshotContent::default());
+    let html =
+        render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &data).expect("renders");
     println!(
         "intel-sized report: {} bytes, {} snapshots, {} poses",
         html.len(),
@@ -168,8 +166,10 @@ fn lost_scans_become_ranges_on_the_time_line() {
         };
         recorder.record(stat, Pose2::IDENTITY, SnapshotContent::default);
     }
-    let data = recorder.finish(Vec::new(), Vec::new(), SnapshotContent::default());
+    let data = recorder.finish(SnapshotContent::default());
     assert_eq!(data.lost_ranges, vec![[2, 4], [7, 7]]);
-    let html = crate::report::render_report_html(&data).expect("renders");
+    let html =
+        crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &data)
+            .expect("renders");
     assert!(html.contains("\"lost_ranges\":[[2,4],[7,7]]"));
 }

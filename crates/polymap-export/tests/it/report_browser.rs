@@ -9,11 +9,13 @@ use polymap::map::MapSegment;
 use polymap_export::report::{
     ReportBudget, ReportData, ReportRecorder, ScanStat, SnapshotContent, write_report_html,
 };
+use polymap_io::snapshot::MapSnapshot;
 
 use crate::{room, tools};
 
-/// A run of `n` scans round the room: the map is the wall pieces seen so far.
-fn synthetic_report(n: u32, budget: ReportBudget) -> ReportData {
+/// A run of `n` scans round the room: the map is the wall pieces seen so far. Returns the final
+/// map (one polyline through every piece) and the replay.
+fn synthetic_report(n: u32, budget: ReportBudget) -> (MapSnapshot, ReportData) {
     let pieces = room::wall_pieces();
     let mut born: Vec<Option<u32>> = vec![None; pieces.len()];
     let mut recorder = ReportRecorder::new("square room <synthetic>", budget);
@@ -53,7 +55,8 @@ fn synthetic_report(n: u32, budget: ReportBudget) -> ReportData {
     let map = seen(&born);
     let polylines = vec![(0..map.len()).collect()];
     let content = SnapshotContent::of_map(&map, n, &DirectionParams::default());
-    recorder.finish(map, polylines, content)
+    let snapshot = MapSnapshot::from_parts(map, polylines, &[], Vec::new());
+    (snapshot, recorder.finish(content))
 }
 
 fn chromium_on_path() -> Option<PathBuf> {
@@ -69,12 +72,12 @@ fn script() -> PathBuf {
 
 #[test]
 fn report_of_a_synthetic_run_is_small_and_self_contained() {
-    let data = synthetic_report(300, ReportBudget::default());
+    let (map, data) = synthetic_report(300, ReportBudget::default());
     assert_eq!(data.total_scans, 300);
-    assert_eq!(data.final_segments.len(), 36, "every wall piece seen");
+    assert_eq!(map.segments.len(), 36, "every wall piece seen");
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().join("report.html");
-    write_report_html(&path, &data).expect("written");
+    write_report_html(&path, &map, &data).expect("written");
     let html = std::fs::read_to_string(&path).expect("read back");
     assert!(html.starts_with("<!DOCTYPE html>"));
     assert!(html.contains("square room &lt;synthetic&gt;"));
@@ -91,7 +94,7 @@ fn report_passes_its_self_test_in_headless_chromium() {
         max_snapshot_numbers: 20_000,
         ..ReportBudget::default()
     };
-    let data = synthetic_report(400, budget);
+    let (map, data) = synthetic_report(400, budget);
     assert!(
         data.snapshots.len() < 400,
         "the budget thinned the snapshots"
@@ -101,7 +104,7 @@ fn report_passes_its_self_test_in_headless_chromium() {
     let report = dir.join("report.html");
     let screenshot = dir.join("report.png");
     let _ = std::fs::remove_file(&screenshot);
-    write_report_html(&report, &data).expect("written");
+    write_report_html(&report, &map, &data).expect("written");
     let output = Command::new("bash")
         .arg(script())
         .arg(&report)
@@ -134,7 +137,8 @@ fn a_broken_report_fails_the_browser_check_with_its_reason() {
     };
     let dir = tempfile::tempdir().expect("temp dir");
     let report = dir.path().join("broken.html");
-    write_report_html(&report, &synthetic_report(20, ReportBudget::default())).expect("written");
+    let (map, data) = synthetic_report(20, ReportBudget::default());
+    write_report_html(&report, &map, &data).expect("written");
     let html = std::fs::read_to_string(&report).expect("read back");
     let broken = html.replacen("\"snapshots\":[", "\"snapshots\":[null,", 1);
     assert_ne!(broken, html);

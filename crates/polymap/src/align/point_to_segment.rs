@@ -3,7 +3,7 @@
 use super::solver::{Constraint, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::geometry::{Pose2, Vec2};
-use crate::grid::NearestCertificate;
+use crate::segment_index::NearestCertificate;
 
 /// Keeps points at least `spacing_m` from the previously kept one (in order), so that close
 /// walls, sampled densely, do not outweigh far ones.

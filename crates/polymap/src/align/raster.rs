@@ -193,8 +193,9 @@ fn x_span(p: Vec2, q: Vec2, ylo: f64, yhi: f64) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::align::{AlignParams, SegmentIndex, fit_score};
+    use crate::align::{AlignParams, fit_score};
     use crate::geometry::Pose2;
+    use crate::segment_index::SegmentIndex;
 
     #[test]
     fn raster_scores_like_fit_score_within_a_cell() {
@@ -204,7 +205,7 @@ mod tests {
         ];
         let params = AlignParams::default();
         let raster = ScoreRaster::of(&segs, &[], 0.02, params.rotation_search_sigma_m);
-        let index = SegmentIndex::new(segs);
+        let index = SegmentIndex::from_segments(&segs, 0.5, 1.0);
         let points: Vec<Vec2> = (0..40)
             .map(|i| Vec2::new(0.1 * i as f64, 0.05 + 0.003 * i as f64))
             .collect();

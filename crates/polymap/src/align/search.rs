@@ -11,10 +11,11 @@ use crate::geometry::{Pose2, Vec2};
 /// when the search is off or nothing scores better.
 ///
 /// ```
-/// use polymap::align::{rotation_search, AlignParams, SegmentIndex};
+/// use polymap::align::{rotation_search, AlignParams};
+/// use polymap::segment_index::SegmentIndex;
 /// use polymap::geometry::{Pose2, Segment, Vec2};
 /// // An L-shaped corner seen by a robot at the origin; the guess is 15° off.
-/// let map = SegmentIndex::new(vec![Segment::new(Vec2::new(3.0, -3.0), Vec2::new(3.0, 3.0)), Segment::new(Vec2::new(3.0, 3.0), Vec2::new(-3.0, 3.0))]);
+/// let map = SegmentIndex::from_segments(&[Segment::new(Vec2::new(3.0, -3.0), Vec2::new(3.0, 3.0)), Segment::new(Vec2::new(3.0, 3.0), Vec2::new(-3.0, 3.0))], 0.5, 1.0);
 /// let points: Vec<Vec2> = (0..=30).map(|i| Vec2::new(3.0, -3.0 + 0.2 * i as f64)).chain((1..=30).map(|i| Vec2::new(3.0 - 0.2 * i as f64, 3.0))).collect();
 /// let found = rotation_search(&points, &map, Pose2::new(0.0, 0.0, 15f64.to_radians()), &AlignParams::default());
 /// assert!(found.theta_rad.abs() < 1.5f64.to_radians());

@@ -1,8 +1,7 @@
-use super::nearest::nearest_brute;
 use super::*;
 use crate::extract::{ExtractParams, extract_segments};
 use crate::geometry::{Segment, Vec2};
-use proptest::prelude::*;
+use crate::segment_index::SegmentIndex;
 
 fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
     Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
@@ -41,7 +40,7 @@ fn assert_recovers(method: AlignMethod, offset: Pose2) {
     let world = room();
     let truth = Pose2::new(-1.0, -0.5, 0.3);
     let pts = cast(&world, &truth);
-    let index = SegmentIndex::new(world);
+    let index = SegmentIndex::from_segments(&world, 0.5, 1.0);
     let guess = truth.compose(&offset);
     let params = AlignParams {
         method,
@@ -61,7 +60,7 @@ fn assert_recovers(method: AlignMethod, offset: Pose2) {
                     .iter()
                     .map(|e| e.segment)
                     .collect();
-            align_endpoints(&segs, &index, index.segments(), guess, guess, &params)
+            align_endpoints(&segs, &index, &world, guess, guess, &params)
         }
     };
     let e = truth.between(&r.map_from_robot);
@@ -110,7 +109,7 @@ fn corridor_keeps_the_unobservable_direction_at_the_guess() {
     let guess = Pose2::new(0.3, 0.0, 0.02);
     let r = align_points(
         &thin_points(&pts, 0.05),
-        &SegmentIndex::new(world),
+        &SegmentIndex::from_segments(&world, 0.5, 1.0),
         guess,
         guess,
         &AlignParams::default(),
@@ -125,7 +124,7 @@ fn too_few_correspondences_put_the_pose_on_the_anchor() {
     let (guess, anchor) = (Pose2::new(1.0, 2.0, 0.5), Pose2::new(0.9, 2.0, 0.45));
     let r = align_points(
         &[Vec2::new(1.0, 0.0)],
-        &SegmentIndex::new(room()),
+        &SegmentIndex::from_segments(&room(), 0.5, 1.0),
         guess,
         anchor,
         &AlignParams::default(),
@@ -133,20 +132,6 @@ fn too_few_correspondences_put_the_pose_on_the_anchor() {
     assert_eq!(r.map_from_robot, anchor);
     assert_eq!(r.weak_directions, 3);
     assert!(!r.converged);
-}
-
-proptest! {
-    #[test]
-    fn nearest_agrees_with_brute_force(
-        raw in proptest::collection::vec((-5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0), 1..30),
-        qx in -6.0f64..6.0, qy in -6.0f64..6.0, r in 0.0f64..4.0,
-    ) {
-        let segs: Vec<Segment> = raw.iter().map(|&(a, b, c, d)| seg(a, b, c, d)).collect();
-        let q = Vec2::new(qx, qy);
-        let fast = SegmentIndex::new(segs.clone()).nearest(q, r);
-        let slow = nearest_brute(&segs, q, r);
-        prop_assert_eq!(fast.map(|n| n.index), slow.map(|n| n.index));
-    }
 }
 
 /// Along an unobservable direction the result lands on the anchor, not on the guess: a
@@ -159,7 +144,7 @@ fn corridor_puts_the_unobservable_direction_on_the_anchor() {
     let (guess, anchor) = (Pose2::new(0.3, 0.0, 0.0), Pose2::new(-0.1, 0.0, 0.0));
     let r = align_points(
         &thin_points(&pts, 0.05),
-        &SegmentIndex::new(world),
+        &SegmentIndex::from_segments(&world, 0.5, 1.0),
         guess,
         anchor,
         &AlignParams::default(),

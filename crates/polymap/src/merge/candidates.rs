@@ -1,33 +1,21 @@
 //! Candidate pairs: segments that come within the proximity gate of each other.
 
-use rstar::primitives::{GeomWithData, Rectangle};
-use rstar::{AABB, RTree};
-
 use crate::geometry::{Segment, Vec2};
+use crate::segment_index::BoxIndex;
 
-/// An R-tree entry: a segment's bounding box with its index.
-pub(crate) type BoxEntry = GeomWithData<Rectangle<[f64; 2]>, usize>;
-
-pub(crate) fn box_entry(s: &Segment, index: usize) -> BoxEntry {
+/// The bounding box of `s` grown by `margin_m` on every side, as `(lo, hi)`, metres.
+pub(crate) fn grown_box(s: &Segment, margin_m: f64) -> (Vec2, Vec2) {
     let (lo, hi) = s.bounds();
-    GeomWithData::new(Rectangle::from_corners([lo.x, lo.y], [hi.x, hi.y]), index)
+    (lo - Vec2::splat(margin_m), hi + Vec2::splat(margin_m))
 }
 
-pub(crate) fn expanded_envelope(s: &Segment, margin_m: f64) -> AABB<[f64; 2]> {
-    let (lo, hi) = s.bounds();
-    AABB::from_corners(
-        [lo.x - margin_m, lo.y - margin_m],
-        [hi.x + margin_m, hi.y + margin_m],
-    )
-}
-
-/// Up to this many pairs, testing every pair beats building an R-tree (measured: a scan meets
+/// Up to this many pairs, testing every pair beats building a `BoxIndex` (an R-tree) (measured: a scan meets
 /// 20 to 90 segments of its local map; up to about 250 segments a side, 65,536 pairs, the
 /// walk is faster).
 pub(crate) const BRUTE_FORCE_PAIRS: usize = 65_536;
 
 /// All pairs `(i, j)` with `a[i]` and `b[j]` no further than `gap_m` apart (segment to segment),
-/// sorted. Uses an R-tree over `b` for large inputs; with an infinite gap every pair qualifies.
+/// sorted. Uses a `BoxIndex` over `b` for large inputs; with an infinite gap every pair qualifies.
 ///
 /// ```
 /// use polymap::merge::pairs_within;
@@ -50,12 +38,13 @@ pub(crate) fn pairs_within_walk_limit(
     if !gap_m.is_finite() || a.len().saturating_mul(b.len()) <= walk_limit {
         return walk_pairs(a, b, gap_m, false);
     }
-    let tree = RTree::bulk_load(b.iter().enumerate().map(|(j, s)| box_entry(s, j)).collect());
+    let index = BoxIndex::from_segments(b);
     let mut out = Vec::new();
     for (i, s) in a.iter().enumerate() {
-        for e in tree.locate_in_envelope_intersecting(expanded_envelope(s, gap_m)) {
-            if s.distance_to_segment_within(&b[e.data], gap_m).is_some() {
-                out.push((i, e.data));
+        let (lo, hi) = grown_box(s, gap_m);
+        for j in index.intersecting_iter(lo, hi) {
+            if s.distance_to_segment_within(&b[j], gap_m).is_some() {
+                out.push((i, j));
             }
         }
     }

@@ -1,12 +1,10 @@
 //! Vertex insertion (section 3.1, Fig. 5): endpoints of one map split the nearby segments of the
 //! other, so that features present in only one of them can find partners in pairing.
 
-use rstar::AABB;
-use rstar::RTree;
-
 use super::MergeParams;
-use super::candidates::{BRUTE_FORCE_PAIRS, box_entry, boxes_within};
+use super::candidates::{BRUTE_FORCE_PAIRS, boxes_within};
 use crate::geometry::{Segment, SegmentProjection, Vec2};
+use crate::segment_index::BoxIndex;
 
 /// A segment after vertex insertion, with the index of the input segment it is part of.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -71,28 +69,19 @@ fn cuts_with_walk_limit(
             .then(a.0.cmp(&b.0))
     };
     // Any candidate set holding every target within `r` gives the same nearest one: all
-    // targets while that is cheap, those whose box meets the endpoint's in an R-tree after.
-    let tree = (2 * sources.len() * targets.len() > walk_limit).then(|| {
-        RTree::bulk_load(
-            targets
-                .iter()
-                .enumerate()
-                .map(|(j, s)| box_entry(s, j))
-                .collect(),
-        )
-    });
+    // targets while that is cheap, those whose box meets the endpoint's in a `BoxIndex` after.
+    let index =
+        (2 * sources.len() * targets.len() > walk_limit).then(|| BoxIndex::from_segments(targets));
     let boxes: Vec<(Vec2, Vec2)> = targets.iter().map(Segment::bounds).collect();
     // Both ways pre-select by boxes grown by `r` and a hair: the projection's rounding may put
     // a target whose box is just beyond `r` within it, and the exact test below decides.
     let grow = r * (1.0 + 1e-9) + 1e-12;
     for e in sources.iter().flat_map(|s| [s.start, s.end]) {
-        let nearest = match &tree {
-            Some(tree) => {
-                let env = AABB::from_corners([e.x - grow, e.y - grow], [e.x + grow, e.y + grow]);
-                tree.locate_in_envelope_intersecting(env)
-                    .map(|c| (c.data, targets[c.data].project(e)))
-                    .min_by(closest)
-            }
+        let nearest = match &index {
+            Some(index) => index
+                .intersecting_iter(e - Vec2::splat(grow), e + Vec2::splat(grow))
+                .map(|j| (j, targets[j].project(e)))
+                .min_by(closest),
             None => boxes
                 .iter()
                 .enumerate()

@@ -3,19 +3,16 @@
 //!
 //! The fast version keeps the candidate pairs in a binary heap with lazy invalidation (a pair is
 //! dropped when popped if either segment has already merged) and finds the new partners of a
-//! merged segment with an R-tree, so only pairs within the proximity gate are ever costed.
+//! merged segment with a `BoxIndex` (an R-tree), so only pairs within the proximity gate are ever costed.
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
-use rstar::RTree;
-
 use super::bands::{BandKey, band_m, band_pairs, keys, may_merge};
-use super::candidates::{
-    BRUTE_FORCE_PAIRS, box_entry, boxes_within, expanded_envelope, pairs_within_self_walk_limit,
-};
+use super::candidates::{BRUTE_FORCE_PAIRS, boxes_within, grown_box, pairs_within_self_walk_limit};
 use super::{MergeParams, best_merge, best_merge_at_most, units};
 use crate::geometry::{Segment, Vec2};
+use crate::segment_index::BoxIndex;
 
 /// One segment of the simplified set.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -130,16 +127,10 @@ pub(crate) fn simplify_with_walk_limit(
         Some(_) => segs.iter().map(|s| keys(s, &directions)).collect(),
         None => Vec::new(),
     };
-    // New partners are found by walking all segments while that is cheap, by an R-tree after
-    // (by the band's keys without a proximity gate).
-    let mut tree = (band.is_none() && segs.len() * segs.len() > walk_limit).then(|| {
-        RTree::bulk_load(
-            segs.iter()
-                .enumerate()
-                .map(|(i, s)| box_entry(s, i))
-                .collect(),
-        )
-    });
+    // New partners are found by walking all segments while that is cheap, by a `BoxIndex`
+    // after (by the band's keys without a proximity gate).
+    let mut index = (band.is_none() && segs.len() * segs.len() > walk_limit)
+        .then(|| BoxIndex::from_segments(&segs));
     let mut merges = 0;
     while let Some(c) = heap.pop() {
         if !alive[c.i] || !alive[c.j] {
@@ -167,19 +158,13 @@ pub(crate) fn simplify_with_walk_limit(
             }
             continue;
         }
-        let mut partners: Vec<usize> = match &mut tree {
-            Some(tree) => {
-                tree.remove(&box_entry(&segs[c.i], c.i));
-                tree.remove(&box_entry(&segs[c.j], c.j));
-                let found = tree
-                    .locate_in_envelope_intersecting(expanded_envelope(
-                        &c.segment,
-                        params.max_gap_m,
-                    ))
-                    .map(|e| e.data)
-                    .filter(near)
-                    .collect();
-                tree.insert(box_entry(&c.segment, k));
+        let mut partners: Vec<usize> = match &mut index {
+            Some(index) => {
+                index.remove(&segs[c.i], c.i);
+                index.remove(&segs[c.j], c.j);
+                let (lo, hi) = grown_box(&c.segment, params.max_gap_m);
+                let found = index.intersecting_iter(lo, hi).filter(near).collect();
+                index.insert(&c.segment, k);
                 found
             }
             None => (0..k).filter(|o| alive[*o]).filter(near).collect(),
