@@ -89,7 +89,11 @@ fn resume_continues_a_map_in_its_frame_and_numbers_scans_on() {
     assert!(out_a.join("loop_nodes.json").is_file());
     let o = map_quietly(&b, &out_ab, &["--resume", out_a.to_str().unwrap()]);
     assert!(o.status.success(), "{}", text(&o));
-    assert!(!String::from_utf8_lossy(&o.stderr).contains("note"), "{}", text(&o));
+    assert!(
+        !String::from_utf8_lossy(&o.stderr).contains("note"),
+        "{}",
+        text(&o)
+    );
 
     let summary = json(&out_ab.join("summary.json"));
     assert_eq!(summary["placed"], true);
@@ -123,7 +127,11 @@ fn resume_continues_a_map_in_its_frame_and_numbers_scans_on() {
     // A map without its loop nodes (an older polymap's) is continued all the same, and says
     // what it cannot do.
     std::fs::remove_file(out_a.join("loop_nodes.json")).unwrap();
-    let o = map_quietly(&b, &dir.path().join("AB2"), &["--resume", out_a.to_str().unwrap()]);
+    let o = map_quietly(
+        &b,
+        &dir.path().join("AB2"),
+        &["--resume", out_a.to_str().unwrap()],
+    );
     assert!(o.status.success(), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no loop_nodes.json"), "{err}");

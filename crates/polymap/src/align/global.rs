@@ -22,13 +22,83 @@ pub const GLOBAL_MIN_SCORE: f64 = 0.2;
 /// linearly.
 pub const GLOBAL_SEARCH_POINTS: usize = 200;
 
-/// The best `max_peaks` distinct poses (apart by `tracking.rival_apart_m` or
-/// `tracking.rival_apart_deg`) of `points_in_robot` anywhere in `map`, or near `hint` when one
-/// is given (within `hint_m` and `hint_rad`), best first. Empty for an empty map or scan, or
-/// when nothing scores [`GLOBAL_MIN_SCORE`].
-///
-/// Points farther than `max_range_m` are left out when enough are nearer (a far point needs a
-/// finer rotation step: the search's cost).
+/// A whole map prepared for global searches: its raster with the block maxima of branch and
+/// bound, built once and searched for scan after scan while the map does not change.
+#[derive(Debug, Clone)]
+pub struct GlobalSearch {
+    matcher: CorrelativeMatcher,
+    /// The whole map and the whole circle.
+    whole: SearchWindow,
+}
+
+impl GlobalSearch {
+    /// Prepares `map` (cells `tracking.search_cell_m`, kernel `tracking.search_sigma_m`);
+    /// `None` for an empty map.
+    pub fn new(map: &GlobalMap, params: &TrackParams) -> Option<Self> {
+        let (lo, hi) = map_bounds(map)?;
+        let c = (lo + hi) * 0.5;
+        let whole = SearchWindow {
+            center: Pose2::new(c.x, c.y, 0.0),
+            half_xy_m: ((hi - lo) * 0.5).max_element(),
+            half_theta_rad: std::f64::consts::PI,
+        };
+        let mut raster = ScoreRaster::new(lo, hi, params.search_cell_m, params.search_sigma_m);
+        for (_, s) in map.iter() {
+            raster.add_segment(&s.segment);
+        }
+        let matcher = CorrelativeMatcher::for_window(raster, whole.half_xy_m);
+        Some(GlobalSearch { matcher, whole })
+    }
+
+    /// The best `max_peaks` distinct poses (apart by `tracking.rival_apart_m` or
+    /// `tracking.rival_apart_deg`) of `points_in_robot` anywhere in the map, or near `hint`
+    /// when one is given (within `hint_m` and `hint_rad`), best first. Empty for an empty scan,
+    /// or when nothing scores [`GLOBAL_MIN_SCORE`].
+    ///
+    /// Points farther than `max_range_m` are left out when enough are nearer (a far point
+    /// needs a finer rotation step: the search's cost).
+    pub fn peaks(
+        &self,
+        points_in_robot: &[Vec2],
+        hint: Option<(Pose2, f64, f64)>,
+        max_peaks: usize,
+        max_range_m: f64,
+        params: &TrackParams,
+    ) -> Vec<Candidate> {
+        let near: Vec<Vec2> = points_in_robot
+            .iter()
+            .copied()
+            .filter(|p| p.length() <= max_range_m)
+            .collect();
+        let points = if near.len() >= 20 {
+            &near[..]
+        } else {
+            points_in_robot
+        };
+        let sample = score_sample_n(points, GLOBAL_SEARCH_POINTS);
+        if sample.is_empty() {
+            return Vec::new();
+        }
+        let window = match hint {
+            Some((center, half_xy_m, half_theta_rad)) => SearchWindow {
+                center,
+                half_xy_m,
+                half_theta_rad,
+            },
+            None => self.whole,
+        };
+        self.matcher.peaks(
+            &sample,
+            &window,
+            GLOBAL_MIN_SCORE,
+            max_peaks,
+            params.rival_apart_m,
+            params.rival_apart_deg.to_radians(),
+        )
+    }
+}
+
+/// [`GlobalSearch::peaks`] on a map prepared for this one search.
 pub fn global_peaks(
     map: &GlobalMap,
     points_in_robot: &[Vec2],
@@ -37,51 +107,9 @@ pub fn global_peaks(
     max_range_m: f64,
     params: &TrackParams,
 ) -> Vec<Candidate> {
-    let Some((lo, hi)) = map_bounds(map) else {
-        return Vec::new();
-    };
-    let near: Vec<Vec2> = points_in_robot
-        .iter()
-        .copied()
-        .filter(|p| p.length() <= max_range_m)
-        .collect();
-    let points = if near.len() >= 20 {
-        &near[..]
-    } else {
-        points_in_robot
-    };
-    let sample = score_sample_n(points, GLOBAL_SEARCH_POINTS);
-    if sample.is_empty() {
-        return Vec::new();
-    }
-    let window = match hint {
-        Some((center, half_xy_m, half_theta_rad)) => SearchWindow {
-            center,
-            half_xy_m,
-            half_theta_rad,
-        },
-        None => {
-            let c = (lo + hi) * 0.5;
-            SearchWindow {
-                center: Pose2::new(c.x, c.y, 0.0),
-                half_xy_m: ((hi - lo) * 0.5).max_element(),
-                half_theta_rad: std::f64::consts::PI,
-            }
-        }
-    };
-    let mut raster = ScoreRaster::new(lo, hi, params.search_cell_m, params.search_sigma_m);
-    for (_, s) in map.iter() {
-        raster.add_segment(&s.segment);
-    }
-    let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
-    matcher.peaks(
-        &sample,
-        &window,
-        GLOBAL_MIN_SCORE,
-        max_peaks,
-        params.rival_apart_m,
-        params.rival_apart_deg.to_radians(),
-    )
+    GlobalSearch::new(map, params).map_or_else(Vec::new, |g| {
+        g.peaks(points_in_robot, hint, max_peaks, max_range_m, params)
+    })
 }
 
 /// The bounding box of the map's segments; `None` for an empty map.

@@ -34,7 +34,7 @@ use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::segment_index::NearestCertificate;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
-pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, global_peaks, map_bounds};
+pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, global_peaks, map_bounds};
 pub use point_to_segment::{align_points, thin_points};
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};

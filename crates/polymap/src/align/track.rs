@@ -234,7 +234,7 @@ pub enum Reason {
     /// The scan has no valid points.
     NoPoints,
     /// A run on a saved map has not placed itself yet: no pose of the map explains the scan
-    /// confidently.
+    /// confidently, or the searches of the last scans do not yet agree on one.
     NotFound,
 }
 
