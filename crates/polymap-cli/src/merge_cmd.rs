@@ -62,9 +62,17 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     let search_s = started.elapsed().as_secs_f64();
     let Some(found) = found else {
         remove_stale(folder.path())?;
+        let report = json!({
+            "a": a.a.display().to_string(),
+            "b": a.b.display().to_string(),
+            "verdict": MatchVerdict::NoOverlap,
+            "reason": "no corner of B matches a corner of A",
+            "segments": {"a": map_a.segments.len(), "b": map_b.segments.len()},
+        });
+        write_json(&folder.path().join("merge.json"), &report)?;
         bail!(
-            "{} and {}: no pair of non-parallel segments meeting at a corner on one side or \
-             the other, so no pose to try: not merged",
+            "{} and {} do not overlap: no corner of B (two non-parallel walls meeting) matches a \
+             corner of A in angle, so there is no pose to try: not merged (see merge.json)",
             shown(&map_a.dir),
             shown(&map_b.dir)
         );
@@ -219,6 +227,7 @@ fn merge_json(
         "conflicts": found.best.conflicts,
         "rival": found.rival.as_ref().map(scored),
         "rival_ratio": found.rival_ratio(),
+        "passing_rival": found.passing_rival(&GlobalParams::default()).map(scored),
         "candidates": candidates,
         "icp": {
             "iterations": found.icp.iterations,
@@ -248,15 +257,20 @@ fn refusal(
     params: &GlobalParams,
 ) -> String {
     let (a, b) = (shown(&a.dir), shown(&b.dir));
-    match (verdict, found.rival) {
+    let rival = found.passing_rival(params).or(found.rival.as_ref());
+    match (verdict, rival) {
         (MatchVerdict::Ambiguous, Some(r)) => {
             let d = r.fixed_from_moving.between(&found.best.fixed_from_moving);
             format!(
-                "{b} fits {a} in two places: a pose {:.2} m and {:.1}° from the best scores {:.0} % \
-                 of it (refused from {:.0} %; a symmetric place?): not merged (see merge.json)",
+                "{b} fits {a} in two places: a pose {:.2} m and {:.1}° from the best explains \
+                 {:.0} % of B's walls with {:.0} % conflicts, {:.0} % of the best's score (refused \
+                 when another pose would pass on its own or reaches {:.0} %; a symmetric place, \
+                 or halves that mirror each other?): not merged (see merge.json)",
                 d.translation().length(),
                 d.theta_rad.to_degrees().abs(),
-                100.0 * found.rival_ratio(),
+                100.0 * r.raster_score,
+                100.0 * r.conflicts,
+                100.0 * r.score.max(0.0) / found.best.score.max(1e-9),
                 100.0 * params.max_rival_ratio
             )
         }

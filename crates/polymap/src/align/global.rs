@@ -215,7 +215,8 @@ pub enum MatchVerdict {
     NoOverlap,
     /// The best pose puts walls of one side where the other side's robot drove.
     Conflicting,
-    /// A pose apart from the best explains the moving side nearly as well.
+    /// A pose apart from the best explains the moving side nearly as well, or would pass on
+    /// its own.
     Ambiguous,
 }
 
@@ -231,18 +232,33 @@ impl GlobalMatch {
     }
 
     /// Accepted when raster score and overlap reach their minimums, the conflicts stay within
-    /// `max_conflicts` and the rival below `max_rival_ratio` of the best; checked in that
+    /// `max_conflicts`, the rival stays below `max_rival_ratio` of the best, and no pose apart
+    /// from the best ([`GlobalMatch::passing_rival`]) would pass on its own; checked in that
     /// order.
     pub fn verdict(&self, params: &GlobalParams) -> MatchVerdict {
         if self.best.raster_score < params.min_score || self.overlap < params.min_overlap {
             MatchVerdict::NoOverlap
         } else if self.best.conflicts > params.max_conflicts {
             MatchVerdict::Conflicting
-        } else if self.rival_ratio() >= params.max_rival_ratio {
+        } else if self.rival_ratio() >= params.max_rival_ratio
+            || self.passing_rival(params).is_some()
+        {
             MatchVerdict::Ambiguous
         } else {
             MatchVerdict::Accepted
         }
+    }
+
+    /// The best-ranked candidate apart from the best (beyond `apart_m` or `apart_deg`) that
+    /// would pass on its own: raster score at least `min_score`, conflicts at most
+    /// `max_conflicts`. A building seen in two halves that mirror each other (a ring corridor
+    /// turned by half a turn) has one, however much better the best scores.
+    pub fn passing_rival(&self, params: &GlobalParams) -> Option<&ScoredPose> {
+        self.candidates.iter().find(|c| {
+            !near(&c.fixed_from_moving, &self.best.fixed_from_moving, params)
+                && c.raster_score >= params.min_score
+                && c.conflicts <= params.max_conflicts
+        })
     }
 }
 
