@@ -148,6 +148,27 @@ fn bad_inputs_are_named() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("nowhere: not a folder"));
 }
 
+#[test]
+fn the_output_may_not_be_an_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = polymap(&["simulate", "clutter", "-o", d.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let a = d.join("A");
+    let o = map_quietly(&d.join("clutter.clf"), &a, &["--max-scans", "100"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let before = fs::read(a.join("map.json")).unwrap();
+    let a_str = a.to_str().unwrap();
+    let o = polymap(&["merge", a_str, a_str, "-o", &format!("{a_str}/.")]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("output folder is an input"),
+        "{}",
+        text(&o)
+    );
+    assert_eq!(fs::read(a.join("map.json")).unwrap(), before);
+}
+
 /// The true a_from_b of two halves of a real log: the median over the relations linking a
 /// scan of A to a scan of B of `A_pose ∘ relation ∘ B_pose⁻¹` (A's and B's own errors enter).
 fn relations_truth(a: &Path, b: &Path, relations: &Path) -> Pose2 {
