@@ -27,8 +27,9 @@ use serde_json::json;
 use crate::args::MergeArgs;
 use crate::quote::quoted;
 
-/// The merge's own files in the output folder.
-const MERGE_FILES: [&str; 3] = ["map.json", "merge.json", "map.svg"];
+/// The merged map's files in the output folder (removed when a merge is refused; `merge.json`
+/// is written either way).
+const MAP_FILES: [&str; 2] = ["map.json", "map.svg"];
 /// Refined poses listed in `merge.json`, best first.
 const CANDIDATES_SHOWN: usize = 8;
 /// Spacing of the points sampled along B's segments for scoring and ICP, metres.
@@ -294,8 +295,9 @@ fn refusal(
         }
         (MatchVerdict::Conflicting, _) => format!(
             "{a} and {b} contradict each other at the best alignment: {:.0} % of the robots' \
-             positions lie within {} m of the other map's walls (refused above {:.0} %): not the \
-             same place, or a map is bent: not merged (see merge.json)",
+             positions lie within {} m of the other map's walls or were reached through one \
+             (refused above {:.0} %): not the same place, or a map is bent: not merged (see \
+             merge.json)",
             100.0 * found.best.conflicts,
             params.clearance_m,
             100.0 * params.max_conflicts
@@ -351,7 +353,7 @@ fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
 
 /// Removes a merged map an earlier merge left in the folder, so none stays beside a refusal.
 fn remove_stale(dir: &Path) -> Result<()> {
-    for name in MERGE_FILES {
+    for name in MAP_FILES {
         let path = dir.join(name);
         if path.is_file() {
             std::fs::remove_file(&path)

@@ -11,7 +11,7 @@
 //!    best is refined by ICP ([`align_points`]) and scored on a fine raster with a larger
 //!    sample, less `conflict_weight` times its conflicts: the share of each side's robot
 //!    positions (free space: the robot stood there) that the pose puts within `clearance_m`
-//!    of the other side's walls;
+//!    of the other side's walls, or that the robot reached through one of them;
 //! 3. the best refined pose wins; the best one apart from it (beyond `apart_m` or
 //!    `apart_deg`) is its rival (a symmetric corridor has a rival nearly as good);
 //! 4. a last ICP from the winner on the larger sample gives the pose, and the share of moving
@@ -30,7 +30,7 @@ use serde::{Deserialize, Serialize};
 use super::pairs::{Corner, corner_poses, corners};
 use super::raster::ScoreRaster;
 use super::search::score_sample_n;
-use super::{AlignParams, AlignResult, SegmentIndex, SegmentLookup, align_points};
+use super::{AlignParams, AlignResult, SegmentLookup, align_points, thin_points};
 use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
@@ -78,8 +78,13 @@ pub struct GlobalParams {
     pub inlier_m: f64,
     /// A robot position this close to the other side's walls is a conflict, metres.
     pub clearance_m: f64,
-    /// At most this many robot positions of each side are checked (evenly spread).
+    /// Robot positions closer than this to the one kept before are skipped, metres.
+    pub path_spacing_m: f64,
+    /// At most about this many robot positions of each side are checked (evenly spread).
     pub path_points: usize,
+    /// A step between kept positions longer than this is not checked for crossing a wall (the
+    /// robot may have gone round a corner between them), metres.
+    pub max_step_m: f64,
     /// Weight of the conflicts (a share) against the raster score in the ranking.
     pub conflict_weight: f64,
     /// Most conflicts (a share) of an accepted match.
@@ -90,6 +95,9 @@ pub struct GlobalParams {
     pub min_overlap: f64,
     /// A rival scoring at least this share of the best makes the match ambiguous.
     pub max_rival_ratio: f64,
+    /// A rival that would pass on its own makes the match ambiguous when it scores at least
+    /// this share of the best.
+    pub min_passing_ratio: f64,
 }
 
 impl Default for GlobalParams {
@@ -114,12 +122,15 @@ impl Default for GlobalParams {
             apart_deg: 10.0,
             inlier_m: 0.1,
             clearance_m: 0.2,
-            path_points: 1000,
+            path_spacing_m: 0.25,
+            path_points: 2000,
+            max_step_m: 1.0,
             conflict_weight: 1.0,
             max_conflicts: 0.15,
             min_score: 0.3,
             min_overlap: 0.3,
             max_rival_ratio: 0.85,
+            min_passing_ratio: 0.5,
         }
     }
 }
@@ -147,12 +158,15 @@ impl GlobalParams {
             .above("apart_deg", self.apart_deg, 0.0, 180.0)
             .above("inlier_m", self.inlier_m, 0.0, 10.0)
             .within("clearance_m", self.clearance_m, 0.0, 10.0)
+            .above("path_spacing_m", self.path_spacing_m, 0.0, 100.0)
             .within("path_points", self.path_points, 1, 10_000_000)
+            .within("max_step_m", self.max_step_m, 0.0, 1e3)
             .within("conflict_weight", self.conflict_weight, 0.0, 1e3)
             .share("max_conflicts", self.max_conflicts)
             .share("min_score", self.min_score)
             .share("min_overlap", self.min_overlap)
             .share("max_rival_ratio", self.max_rival_ratio)
+            .share("min_passing_ratio", self.min_passing_ratio)
             .done()
     }
 }
@@ -250,14 +264,15 @@ impl GlobalMatch {
     }
 
     /// The best-ranked candidate apart from the best (beyond `apart_m` or `apart_deg`) that
-    /// would pass on its own: raster score at least `min_score`, conflicts at most
-    /// `max_conflicts`. A building seen in two halves that mirror each other (a ring corridor
-    /// turned by half a turn) has one, however much better the best scores.
+    /// would pass on its own (raster score at least `min_score`, conflicts at most
+    /// `max_conflicts`) and scores at least `min_passing_ratio` of the best. A building seen
+    /// in two halves that mirror each other (a ring corridor turned by half a turn) has one.
     pub fn passing_rival(&self, params: &GlobalParams) -> Option<&ScoredPose> {
         self.candidates.iter().find(|c| {
             !near(&c.fixed_from_moving, &self.best.fixed_from_moving, params)
                 && c.raster_score >= params.min_score
                 && c.conflicts <= params.max_conflicts
+                && c.score >= params.min_passing_ratio * self.best.score
         })
     }
 }
@@ -336,9 +351,9 @@ pub fn global_match(
         fixed,
         fine: raster(params.fine_cell_m, params.fine_sigma_m),
         sample: score_sample_n(moving.points, params.fine_points),
-        fixed_path: score_sample_n(fixed_path, params.path_points),
-        moving_index: SegmentIndex::new(moving.segments.to_vec()),
-        moving_path: score_sample_n(moving.path, params.path_points),
+        fixed_path: thin_path(fixed_path, params),
+        moving_map: map_of(moving.segments, fixed),
+        moving_path: thin_path(moving.path, params),
         params,
     };
     let icp_sample = score_sample_n(moving.points, params.icp_points);
@@ -370,7 +385,7 @@ struct Judge<'a> {
     fine: ScoreRaster,
     sample: Vec<Vec2>,
     fixed_path: Vec<Vec2>,
-    moving_index: SegmentIndex,
+    moving_map: GlobalMap,
     moving_path: Vec<Vec2>,
     params: &'a GlobalParams,
 }
@@ -388,13 +403,13 @@ impl Judge<'_> {
     }
 
     /// The mean, over the sides with a path, of the share of its robot positions that `pose`
-    /// puts within `clearance_m` of the other side's walls.
+    /// puts on the other side's walls (see [`path_conflicts`]).
     fn conflicts(&self, pose: &Pose2) -> f64 {
-        let c = self.params.clearance_m;
+        let p = self.params;
         let moving_from_fixed = pose.inverse();
         let shares = [
-            path_conflicts(&self.moving_path, self.fixed, pose, c),
-            path_conflicts(&self.fixed_path, &self.moving_index, &moving_from_fixed, c),
+            path_conflicts(&self.moving_path, self.fixed, pose, p),
+            path_conflicts(&self.fixed_path, &self.moving_map, &moving_from_fixed, p),
         ];
         let given: Vec<f64> = shares.into_iter().flatten().collect();
         match given.len() {
@@ -404,25 +419,64 @@ impl Judge<'_> {
     }
 }
 
-/// The share of `path` (robot positions, moving frame) that `to_walls_from_path` puts within
-/// `clearance_m` of `walls`; `None` for an empty path.
+/// A path thinned to positions `path_spacing_m` apart, then to at most about `path_points`.
+fn thin_path(path: &[Vec2], params: &GlobalParams) -> Vec<Vec2> {
+    score_sample_n(
+        &thin_points(path, params.path_spacing_m),
+        params.path_points,
+    )
+}
+
+/// The share of `path` (robot positions in order, path frame) that `walls_from_path` puts on
+/// `walls`: within `clearance_m` of a wall, or reached from the position before (at most
+/// `max_step_m` away) through a wall. `None` for an empty path.
 fn path_conflicts(
     path: &[Vec2],
-    walls: &impl SegmentLookup,
-    to_walls_from_path: &Pose2,
-    clearance_m: f64,
+    walls: &GlobalMap,
+    walls_from_path: &Pose2,
+    params: &GlobalParams,
 ) -> Option<f64> {
     if path.is_empty() {
         return None;
     }
-    let hits = path
+    let moved: Vec<Vec2> = path
         .iter()
-        .filter(|p| {
-            let q = to_walls_from_path.transform_point(**p);
-            walls.nearest_segment_only(q, clearance_m).is_some()
+        .map(|p| walls_from_path.transform_point(*p))
+        .collect();
+    let crosses = |step: Segment| {
+        walls
+            .near_segment(&step, 0.0)
+            .into_iter()
+            .filter_map(|id| walls.get(id))
+            .any(|w| w.segment.intersects(&step))
+    };
+    let hits = moved
+        .iter()
+        .enumerate()
+        .filter(|(i, q)| {
+            let near = walls
+                .nearest_segment_only(**q, params.clearance_m)
+                .is_some();
+            let through = i.checked_sub(1).is_some_and(|j| {
+                let step = Segment::new(moved[j], **q);
+                step.length() <= params.max_step_m && crosses(step)
+            });
+            near || through
         })
         .count();
     Some(hits as f64 / path.len() as f64)
+}
+
+/// `segments` in a map store like `like`'s (born at scan 0).
+fn map_of(segments: &[Segment], like: &GlobalMap) -> GlobalMap {
+    let mut map = like.empty_like();
+    for s in segments {
+        map.insert(crate::map::MapSegment {
+            segment: *s,
+            born_scan: 0,
+        });
+    }
+    map
 }
 
 /// Every pose of every pair of matching corners, without repeats.
