@@ -29,6 +29,9 @@ pub enum Command {
     /// Localize a log in a saved map without changing the map: global localization at the
     /// start, then tracking (with recovery when lost); writes the trajectory in the map's frame.
     Localize(LocalizeArgs),
+    /// Merge two maps of the same place made separately: find where B lies in A (no guess
+    /// needed), refuse maps that do not overlap or fit in two places, merge B into A.
+    Merge(MergeArgs),
 }
 
 #[derive(Debug, Args)]
@@ -38,6 +41,22 @@ pub struct LocalizeArgs {
     pub map: PathBuf,
     #[command(flatten)]
     pub run: MapArgs,
+}
+
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// The first map's folder (output of `polymap map`, holding map.json): the merged map is
+    /// in its frame.
+    pub a: PathBuf,
+    /// The second map's folder (holding map.json).
+    pub b: PathBuf,
+    /// Output folder: map.json (merged, A's frame), merge.json (the transform a_from_b, score,
+    /// rival, overlap), map.svg.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Print nothing but warnings and errors.
+    #[arg(short, long)]
+    pub quiet: bool,
 }
 
 #[derive(Debug, Args)]

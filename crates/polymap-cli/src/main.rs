@@ -26,6 +26,7 @@ mod export_cmd;
 mod info_cmd;
 mod interrupt;
 mod map_cmd;
+mod merge_cmd;
 mod outputs;
 mod quote;
 mod sim_cmd;
@@ -44,6 +45,7 @@ fn main() -> ExitCode {
         args::Command::Eval(a) => eval_cmd::run(&a),
         args::Command::Export(a) => export_cmd::run(&a),
         args::Command::Localize(a) => map_cmd::localize(&a),
+        args::Command::Merge(a) => merge_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

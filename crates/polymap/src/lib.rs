@@ -10,10 +10,11 @@
 //! - [`extract`]: points to segments (Discrete Curve Evolution, total least squares refit).
 //! - [`polyline`]: segments to generalized polylines.
 //! - [`align`]: ICP of a scan against the map (endpoint and point-to-segment correspondences,
-//!   coarse rotation search).
+//!   coarse rotation search); global alignment of a second map or a scan without a guess.
 //! - [`directions`]: main directions from the length-weighted direction histogram.
 //! - [`cost`]: the merged segment `ms(L1, L2, ad)` and the cost `C(L1, L2, ad)`.
-//! - [`merge`]: vertex insertion, restrictive pairing, simplification.
+//! - [`merge`]: vertex insertion, restrictive pairing, simplification; a second map into the
+//!   map.
 //! - [`mapper`]: the incremental loop owning `G_t`.
 //! - [`loops`]: loop closure over a pose graph of trajectory stretches (an addition).
 //!

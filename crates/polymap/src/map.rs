@@ -89,6 +89,17 @@ impl GlobalMap {
         }
     }
 
+    /// An empty map indexed like this one (same cell and reach).
+    pub fn empty_like(&self) -> Self {
+        GlobalMap {
+            slots: Vec::new(),
+            free: Vec::new(),
+            grid: SegmentIndex::new(self.grid.cell_m(), self.grid.reach_m()),
+            recent: Vec::new(),
+            len: 0,
+        }
+    }
+
     /// Number of segments.
     pub fn len(&self) -> usize {
         self.len

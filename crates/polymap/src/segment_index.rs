@@ -174,6 +174,11 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         self.cells.is_empty()
     }
 
+    /// The cell size, metres.
+    pub fn cell_m(&self) -> f64 {
+        self.cell_m
+    }
+
     /// The largest query distance answered from a single cell, metres.
     pub fn reach_m(&self) -> f64 {
         self.reach_m

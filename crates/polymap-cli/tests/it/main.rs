@@ -5,6 +5,7 @@ mod datasets;
 mod fig7;
 mod hardening;
 mod lifelong;
+mod merge;
 mod ros;
 mod support;
 mod tracking;

@@ -16,11 +16,17 @@
 //! directions that the correspondences constrain (eigenvectors of the normal matrix with enough
 //! information), so in a featureless corridor the along-corridor position stays where the
 //! motion prior put it instead of sliding on noise.
+//!
+//! Without a guess, [`global_match`] finds where a second map or a scan lies in a map: pose
+//! hypotheses from pairs of segments (`pairs.rs`), verified on a [`ScoreRaster`], refined by
+//! [`CorrelativeMatcher`] and ICP (`global.rs`).
 
 mod correlative;
 mod endpoints;
 mod global;
 mod nearest;
+mod pair_search;
+mod pairs;
 mod point_to_segment;
 mod raster;
 mod search;
@@ -35,6 +41,11 @@ use crate::segment_index::NearestCertificate;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
 pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, global_peaks, map_bounds};
+pub use pair_search::{
+    GlobalMatch, GlobalParams, MatchVerdict, MovingSide, ScoredPose, global_match, overlap_share,
+    points_along,
+};
+pub use pairs::{Corner, corner_poses, corners};
 pub use point_to_segment::{align_points, thin_points};
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};

@@ -9,6 +9,7 @@
 mod bands;
 mod candidates;
 mod insertion;
+mod maps;
 mod pairing;
 mod scan;
 mod simplify;
@@ -20,6 +21,7 @@ use crate::cost::{Merge, cost_at_most, unit};
 use crate::geometry::{Segment, Vec2};
 pub use candidates::{pairs_within, pairs_within_brute, pairs_within_self};
 pub use insertion::{Piece, insert_vertices};
+pub use maps::{MapMergeParams, MapMergeResult, merge_map};
 pub use pairing::{Child, Pairing, restrictive_pairing};
 pub use scan::{MergeDiagnostics, MergeResult, merge_scan};
 pub use simplify::{Simplified, SimplifiedSegment, simplify, simplify_brute};
