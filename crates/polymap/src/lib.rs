@@ -16,6 +16,8 @@
 //! - [`merge`]: vertex insertion, restrictive pairing, simplification.
 //! - [`mapper`]: the incremental loop owning `G_t`.
 //! - [`loops`]: loop closure over a pose graph of trajectory stretches (an addition).
+//! - [`observe`]: what each scan saw of the map and saw through, and pruning the segments
+//!   later scans contradict (an addition).
 //!
 //! Support: [`geometry`] (points, SE(2) poses, segments, undirected angles), [`map`] (the map
 //! store), [`grid`] (its spatial index), [`config`] (the configuration tree and presets).
@@ -36,6 +38,7 @@ pub mod map;
 pub mod mapper;
 pub mod merge;
 pub mod motion;
+pub mod observe;
 pub mod polyline;
 pub mod scan;
 

@@ -24,6 +24,7 @@ use crate::map::{GlobalMap, MapSegment};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
 pub use crate::motion::{MapperParams, MotionPrior};
+use crate::observe::observe_scan;
 use crate::polyline::group_polylines;
 use crate::scan::RangeScan;
 
@@ -341,6 +342,15 @@ impl Mapper {
             t,
         )
         .diagnostics;
+        if !lost {
+            observe_scan(
+                &mut self.map,
+                &scan.points_in_robot,
+                &pose,
+                t,
+                &self.config.observe,
+            );
+        }
         let merged = Instant::now();
         self.scans += 1;
         self.trajectory.push(pose);
@@ -437,15 +447,10 @@ impl Mapper {
                 let segment = s.segment.transformed(&d);
                 let far = segment.start.distance_squared(s.segment.start) > STAY_M * STAY_M
                     || segment.end.distance_squared(s.segment.end) > STAY_M * STAY_M;
-                far.then_some((id, segment, s.born_scan))
+                far.then_some((id, segment))
             })
             .collect();
-        for (id, _, _) in &moved {
-            self.map.remove(*id);
-        }
-        for (_, segment, born_scan) in moved {
-            self.map.insert(MapSegment { segment, born_scan });
-        }
+        self.map.move_segments(&moved);
         for (t, pose) in self
             .trajectory
             .iter_mut()
@@ -772,5 +777,6 @@ pub(crate) fn bounds(points: impl Iterator<Item = Vec2>) -> Option<(Vec2, Vec2)>
     })
 }
 
+mod observed;
 #[cfg(test)]
 mod tests;
