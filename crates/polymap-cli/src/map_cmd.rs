@@ -59,8 +59,11 @@ pub fn run(a: &MapArgs) -> Result<()> {
     let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (record, stats) = map_source(source, &config, a, &folder, stop)?;
+    let (mut record, stats) = map_source(source, &config, a, &folder, stop)?;
     check_not_empty(&log_name, &record, stats.as_ref())?;
+    let pruned = a
+        .prune_contradicted
+        .then(|| record.mapper.prune_contradicted());
     let removed = folder
         .remove_stale(&a.export, a.diagnostics)
         .with_context(|| format!("{}: cannot remove old outputs", folder.path().display()))?;
@@ -74,7 +77,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
     let snapshot = snapshot(&log_name, &config, &record, a.svg_points);
     let reader = stats.as_ref().map_or(serde_json::Value::Null, reader_json);
     let every = [a.every, a.every_offset];
-    let summary = summary_json(
+    let mut summary = summary_json(
         &log_name,
         &config,
         &record,
@@ -82,6 +85,12 @@ pub fn run(a: &MapArgs) -> Result<()> {
         record.valid_returns,
         reader,
     );
+    if let Some(n) = pruned {
+        summary["pruned_segments"] = json!(n);
+        if !a.quiet {
+            say!("pruned {n} map segments that later scans saw through");
+        }
+    }
     let written = folder.write_run(&RunFiles {
         snapshot: &snapshot,
         summary: &summary,
@@ -187,6 +196,7 @@ fn snapshot(log: &str, config: &Config, run: &RunRecord, points: bool) -> MapSna
         FRAME_FIRST_SCAN
     };
     let segments = run.mapper.segments();
+    let observations = run.mapper.observations();
     let polylines: Vec<Polyline> = run
         .mapper
         .polylines()
@@ -208,6 +218,7 @@ fn snapshot(log: &str, config: &Config, run: &RunRecord, points: bool) -> MapSna
             polylines.len()
         ),
         segments,
+        observations,
         polylines,
         trajectory: run.trajectory.clone(),
         points,
