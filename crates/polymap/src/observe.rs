@@ -165,8 +165,8 @@ impl Default for Crossings {
 /// let mut map = GlobalMap::default();
 /// let wall = |x: f64| MapSegment { segment: Segment::new(Vec2::new(x, -1.0), Vec2::new(x, 1.0)), born_scan: 0 };
 /// let (ghost, far) = (map.insert(wall(2.0)), map.insert(wall(4.0)));
-/// // Returns from the far wall only: the rays pass where the ghost stands.
-/// let points: Vec<Vec2> = (-10..=10).map(|i| Vec2::new(4.0, 0.09 * i as f64)).collect();
+/// // Returns from the far wall only: the rays pass all along where the ghost stands.
+/// let points: Vec<Vec2> = (-10..=10).map(|i| Vec2::new(4.0, 0.2 * i as f64)).collect();
 /// let out = observe_scan(&mut map, &points, &Pose2::IDENTITY, 5, &ObserveParams::default());
 /// assert_eq!((out.seen, out.seen_through), (1, 1));
 /// assert_eq!(map.observations(ghost).unwrap().through_since_seen, 1);

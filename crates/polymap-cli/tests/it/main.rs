@@ -4,6 +4,7 @@ mod cli;
 mod datasets;
 mod fig7;
 mod hardening;
+mod observe;
 mod ros;
 mod support;
 mod tracking;
