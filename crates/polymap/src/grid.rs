@@ -315,56 +315,44 @@ impl<K: Copy + Ord> SegmentGrid<K> {
         // Floors are shrunk by a relative hair: a segment through a cell's corner may get a
         // floor a rounding error above zero.
         const FLOOR_2: f64 = 1e-12;
-        let mut visit = |c: Cell| {
+        self.walk_cells(a, b, |c| {
             if let Some(list) = self.cells.get(&c) {
                 for e in list.iter().take_while(|e| e.floor_2 <= FLOOR_2) {
                     f(e.key, &e.segment);
                 }
             }
-        };
-        for c in self.cells_along(a, b) {
-            visit(c);
-        }
+        });
     }
 
-    /// The cells segment `a`–`b` passes through, in order from `a` (Amanatides–Woo); at a
-    /// corner both cells beside the step are included.
-    fn cells_along(&self, a: Vec2, b: Vec2) -> Vec<Cell> {
+    /// Calls `visit` with each cell segment `a`–`b` passes through, in order from `a`
+    /// (Amanatides–Woo); where it steps through a corner, also with both cells beside it.
+    fn walk_cells(&self, a: Vec2, b: Vec2, mut visit: impl FnMut(Cell)) {
         let (mut c, last) = (self.cell_of(a), self.cell_of(b));
         let d = b - a;
         let step = (d.x.signum() as i64, d.y.signum() as i64);
-        let next_boundary =
-            |p: f64, i: i64, s: i64| (i + i64::from(s > 0)) as f64 * self.cell_m - p;
-        let t_max_x = |ci: i64| next_boundary(a.x, ci, step.0) / d.x;
-        let t_max_y = |cj: i64| next_boundary(a.y, cj, step.1) / d.y;
+        let boundary = |p: f64, i: i64, s: i64| (i + i64::from(s > 0)) as f64 * self.cell_m - p;
         let n = (last.0 - c.0).abs() + (last.1 - c.1).abs();
-        let mut out = Vec::with_capacity(n as usize + 1);
-        out.push(c);
+        visit(c);
         for _ in 0..n.min(1 << 20) {
-            let (tx, ty) = (
-                if d.x != 0.0 {
-                    t_max_x(c.0)
-                } else {
-                    f64::INFINITY
-                },
-                if d.y != 0.0 {
-                    t_max_y(c.1)
-                } else {
-                    f64::INFINITY
-                },
-            );
+            let tx = match d.x != 0.0 {
+                true => boundary(a.x, c.0, step.0) / d.x,
+                false => f64::INFINITY,
+            };
+            let ty = match d.y != 0.0 {
+                true => boundary(a.y, c.1, step.1) / d.y,
+                false => f64::INFINITY,
+            };
             if (tx - ty).abs() <= 1e-12 && c.0 != last.0 && c.1 != last.1 {
-                out.push((c.0 + step.0, c.1));
-                out.push((c.0, c.1 + step.1));
+                visit((c.0 + step.0, c.1));
+                visit((c.0, c.1 + step.1));
             }
             if (tx < ty && c.0 != last.0) || c.1 == last.1 {
                 c.0 += step.0;
             } else {
                 c.1 += step.1;
             }
-            out.push(c);
+            visit(c);
         }
-        out
     }
 
     /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come

@@ -140,8 +140,16 @@ pub fn merge_scan(
 /// near it: seen at `t` when one of them was (a child or a scan segment), else only their
 /// records combined (merging old pieces the scan did not see is no sighting).
 fn inherited(items: &[Item], merged: &Segment, t: u32) -> Observations {
+    let (lo, hi) = merged.bounds();
+    let grow = crate::geometry::Vec2::splat(INHERIT_WITHIN_M);
+    let (lo, hi) = (lo - grow, hi + grow);
     let near: Vec<Observations> = items
         .iter()
+        .filter(|i| {
+            // The boxes first: most members are far from the merged segment.
+            let (a, b) = i.segment.bounds();
+            a.cmple(hi).all() && b.cmpge(lo).all()
+        })
         .filter(|i| {
             i.segment
                 .distance_to_segment_within(merged, INHERIT_WITHIN_M)
