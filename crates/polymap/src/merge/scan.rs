@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
-use crate::geometry::Segment;
+use crate::geometry::{Segment, angle_between_directions_rad};
 use crate::map::{GlobalMap, MapSegment, Observations, SegmentId};
 
 /// Counts through one merge.
@@ -39,8 +39,11 @@ struct Item {
 }
 
 /// A segment that simplification merged inherits the records of the members of `A_t` within
-/// this distance of it, metres (simplification merges only segments that close).
+/// this distance of it, metres (simplification merges only segments that close)...
 const INHERIT_WITHIN_M: f64 = 0.5;
+/// ...and within this angle of its direction, degrees (a wall's record does not take a
+/// crossing segment's).
+const INHERIT_WITHIN_DEG: f64 = 30.0;
 
 /// What one merge did to the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -137,9 +140,10 @@ pub fn merge_scan(
 }
 
 /// The record of a segment that simplification merged at scan `t`, from the members of `A_t`
-/// near it: seen at `t` when one of them was (a child or a scan segment), else only their
+/// near it and roughly parallel: seen at `t` when one of them was (a child or a scan segment), else only their
 /// records combined (merging old pieces the scan did not see is no sighting).
 fn inherited(items: &[Item], merged: &Segment, t: u32) -> Observations {
+    let direction = merged.direction_rad();
     let (lo, hi) = merged.bounds();
     let grow = crate::geometry::Vec2::splat(INHERIT_WITHIN_M);
     let (lo, hi) = (lo - grow, hi + grow);
@@ -151,9 +155,11 @@ fn inherited(items: &[Item], merged: &Segment, t: u32) -> Observations {
             a.cmple(hi).all() && b.cmpge(lo).all()
         })
         .filter(|i| {
-            i.segment
-                .distance_to_segment_within(merged, INHERIT_WITHIN_M)
-                .is_some()
+            let turn = angle_between_directions_rad(i.segment.direction_rad(), direction);
+            turn <= INHERIT_WITHIN_DEG.to_radians()
+                && i.segment
+                    .distance_to_segment_within(merged, INHERIT_WITHIN_M)
+                    .is_some()
         })
         .map(|i| i.observations)
         .collect();
