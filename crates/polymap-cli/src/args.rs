@@ -192,6 +192,11 @@ pub struct MapArgs {
     /// Also draw the scan points in map.svg.
     #[arg(long)]
     pub svg_points: bool,
+    /// At the end of the run, remove the map segments that later scans contradict: seen
+    /// through (laser rays passed where they stand) by several scans since any scan saw them
+    /// (a moved cupboard, an opened door, people). Rules in the config section `[observe]`.
+    #[arg(long)]
+    pub prune_contradicted: bool,
     /// Stop after this many scans (counted after --every).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     pub max_scans: Option<u64>,

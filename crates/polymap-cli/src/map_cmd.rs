@@ -82,6 +82,7 @@ impl SavedMap {
             segments: self.map.map_segments(),
             scans: self.map.scans_mapped(),
             nodes: self.nodes.clone(),
+            observations: self.map.observations(),
         };
         Mapper::on_map(config.clone(), prior, self.role, start)
     }
@@ -103,6 +104,11 @@ pub fn localize(l: &LocalizeArgs) -> Result<()> {
         "localize takes the map with --map DIR; --resume is for `polymap map`"
     );
     anyhow::ensure!(l.run.log.is_some(), "localize needs the LOG to localize");
+    anyhow::ensure!(
+        !l.run.prune_contradicted,
+        "localize leaves the map as it is: --prune-contradicted is for `polymap map` (with or \
+         without --resume)"
+    );
     let saved = SavedMap::read(&l.map, MapRole::Localize)?;
     run_with(&l.run, Some(saved))
 }
@@ -141,8 +147,11 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
+    let (mut record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
     check_not_empty(&log_name, &record, stats.as_ref())?;
+    let pruned = a
+        .prune_contradicted
+        .then(|| record.mapper.prune_contradicted());
     let removed = folder
         .remove_stale(&a.export, a.diagnostics)
         .with_context(|| format!("{}: cannot remove old outputs", folder.path().display()))?;
@@ -156,7 +165,7 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let snapshot = snapshot(&log_name, &config, &record, a.svg_points, saved.as_ref());
     let reader = stats.as_ref().map_or(serde_json::Value::Null, reader_json);
     let every = [a.every, a.every_offset];
-    let summary = summary_json(
+    let mut summary = summary_json(
         &log_name,
         &config,
         &record,
@@ -164,6 +173,12 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         record.valid_returns,
         reader,
     );
+    if let Some(n) = pruned {
+        summary["pruned_segments"] = json!(n);
+        if !a.quiet {
+            say!("pruned {n} map segments that later scans saw through");
+        }
+    }
     let loop_nodes = record.mapper.loop_nodes();
     let written = folder.write_run(&RunFiles {
         snapshot: &snapshot,
@@ -303,6 +318,7 @@ fn snapshot(
         None => "",
     };
     let segments = run.mapper.segments();
+    let observations = run.mapper.observations();
     let polylines: Vec<Polyline> = run
         .mapper
         .polylines()
@@ -324,6 +340,7 @@ fn snapshot(
             polylines.len()
         ),
         segments,
+        observations,
         polylines,
         trajectory: run.trajectory.clone(),
         points,

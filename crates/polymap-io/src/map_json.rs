@@ -2,7 +2,8 @@
 //!
 //! ```json
 //! {"version": 2, "units": "m", "frame": "first_scan", "scans": 13631,
-//!  "segments": [{"start": [x, y], "end": [x, y], "born_scan": 0, "length_m": 1.0}, ...],
+//!  "segments": [{"start": [x, y], "end": [x, y], "born_scan": 0, "length_m": 1.0,
+//!                "last_seen_scan": 90, "seen": 12, "seen_through": 1, "through_since_seen": 0}, ...],
 //!  "polylines": [[0, 1, 2], ...]}
 //! ```
 //!
@@ -12,6 +13,10 @@
 //! over every run that built it (a resumed run numbers its scans on from there, so `born_scan`
 //! stays unique); a version 1 file gives one more than its highest `born_scan`. The format is
 //! documented for users in `docs/MAP_FORMAT.md`.
+//!
+//! `last_seen_scan`, `seen`, `seen_through` and `through_since_seen` are the segment's
+//! [`Observations`] (what later scans saw of it; written together, optional when read: files
+//! from before they were recorded have none).
 //!
 //! `frame` names the map frame: [`FRAME_FIRST_SCAN`] (the first scan's pose) or
 //! [`FRAME_ODOMETRY`] (odometry's frame). A polyline lists segment indices in order along it.
@@ -37,7 +42,7 @@ use std::io::{BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
 use polymap::geometry::{Segment, Vec2};
-use polymap::map::MapSegment;
+use polymap::map::{MapSegment, Observations};
 use serde::{Deserialize, Serialize};
 
 /// `frame` value: the map frame is the pose of the first scan.
@@ -86,6 +91,9 @@ pub struct SegmentJson {
     /// read, never trusted over the endpoints).
     #[serde(default)]
     pub length_m: f64,
+    /// What later scans observed of the segment (all four fields, or none).
+    #[serde(flatten)]
+    pub observations: Option<Observations>,
 }
 
 /// An error reading or writing `map.json`, naming the file.
@@ -158,6 +166,22 @@ impl MapJson {
         })
     }
 
+    /// The document with each segment's observation record (`observations[i]` for segment `i`);
+    /// unchanged when the counts differ.
+    pub fn with_observations(mut self, observations: &[Observations]) -> Self {
+        if observations.len() == self.segments.len() {
+            for (s, o) in self.segments.iter_mut().zip(observations) {
+                s.observations = Some(*o);
+            }
+        }
+        self
+    }
+
+    /// Every segment's observation record, in file order; `None` when a segment has none.
+    pub fn observations(&self) -> Option<Vec<Observations>> {
+        self.segments.iter().map(|s| s.observations).collect()
+    }
+
     /// The segments as [`MapSegment`]s, in file order.
     pub fn map_segments(&self) -> Vec<MapSegment> {
         self.segments.iter().map(|s| s.to_map_segment()).collect()
@@ -203,6 +227,7 @@ impl From<&MapSegment> for SegmentJson {
             end: [s.end.x, s.end.y],
             born_scan: m.born_scan,
             length_m: s.length(),
+            observations: None,
         }
     }
 }
@@ -476,5 +501,32 @@ mod tests {
             "polylines": [[0]]}"#;
         let map = read_map_json_from(text.as_bytes(), "m").unwrap();
         assert_eq!(map.map_segments()[0], segment(0.0, 0.0, 1.0, 0.0, 2));
+    }
+
+    #[test]
+    fn observations_round_trip_and_older_files_have_none() {
+        let segments = [
+            segment(0.0, 0.0, 1.0, 0.0, 2),
+            segment(0.0, 1.0, 1.0, 1.0, 3),
+        ];
+        let mut seen = Observations::born(3);
+        seen.saw_through();
+        let records = [Observations::born(2), seen];
+        let map = MapJson::new(FRAME_FIRST_SCAN, &segments, &[]).with_observations(&records);
+        let mut bytes = Vec::new();
+        write_map_json_to(&mut bytes, "map.json", &map).unwrap();
+        let text = String::from_utf8(bytes.clone()).unwrap();
+        assert!(
+            text.contains("\"seen_through\":1,\"through_since_seen\":1"),
+            "{text}"
+        );
+        let back = read_map_json_from(&bytes[..], "map.json").unwrap();
+        assert_eq!(back.observations(), Some(records.to_vec()));
+        let old = r#"{"units": "m", "frame": "first_scan",
+            "segments": [{"start": [0, 0], "end": [1, 0], "born_scan": 2, "length_m": 1}],
+            "polylines": []}"#;
+        let old = read_map_json_from(old.as_bytes(), "old.json").unwrap();
+        assert_eq!(old.segments[0].observations, None);
+        assert_eq!(old.observations(), None);
     }
 }

@@ -21,7 +21,7 @@
 //! ```
 
 use polymap::geometry::Vec2;
-use polymap::map::MapSegment;
+use polymap::map::{MapSegment, Observations};
 use serde::{Deserialize, Serialize};
 
 use crate::map_json::{FRAME_FIRST_SCAN, MapJson};
@@ -45,6 +45,9 @@ pub struct MapSnapshot {
     pub title: String,
     /// The map's segments.
     pub segments: Vec<MapSegment>,
+    /// What later scans observed of each segment (`observations[i]` for `segments[i]`), for
+    /// `map.json`; empty when not known. The pictures do not use it.
+    pub observations: Vec<Observations>,
     /// The map's polylines; out-of-range indices are ignored by the pictures.
     pub polylines: Vec<Polyline>,
     /// One pose per scan, `map_from_robot`, with the scan's own time stamp.
@@ -62,6 +65,7 @@ impl Default for MapSnapshot {
             frame: FRAME_FIRST_SCAN.to_owned(),
             title: String::new(),
             segments: Vec::new(),
+            observations: Vec::new(),
             polylines: Vec::new(),
             trajectory: Vec::new(),
             points: Vec::new(),
@@ -77,6 +81,7 @@ impl MapSnapshot {
             frame: map.frame.clone(),
             title: String::new(),
             segments: map.map_segments(),
+            observations: map.observations().unwrap_or_default(),
             polylines: map
                 .polylines
                 .iter()
@@ -134,6 +139,7 @@ impl MapSnapshot {
         let scans = self.trajectory.len().min(u32::MAX as usize) as u32;
         MapJson::new(self.frame.clone(), &self.segments, &polylines)
             .with_scans(self.scans_before.saturating_add(scans))
+            .with_observations(&self.observations)
     }
 }
 

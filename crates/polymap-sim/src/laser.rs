@@ -177,6 +177,7 @@ mod tests {
 
     fn wall_ahead() -> World {
         World {
+            moved: None,
             name: "wall".into(),
             description: String::new(),
             walls: vec![Segment::new(Vec2::new(5.0, -100.0), Vec2::new(5.0, 100.0))],

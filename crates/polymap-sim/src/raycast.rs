@@ -102,6 +102,7 @@ fn hit(origin: Vec2, dir: Vec2, range_m: f64, obstacle: Obstacle) -> RayHit {
 /// use polymap::geometry::{Segment, Vec2};
 /// use polymap_sim::{World, raycast::cast_ray_brute};
 /// let world = World {
+///     moved: None,
 ///     name: "one wall".into(),
 ///     description: String::new(),
 ///     walls: vec![Segment::new(Vec2::new(2.0, -5.0), Vec2::new(2.0, 5.0))],

@@ -142,6 +142,7 @@ pub fn simulate(world: &World, params: &SimParams, seed: u64) -> SimRun {
         &mut rng(seed, ODOMETRY_FAULT_STREAM),
     );
     let caster = RayCaster::new(world);
+    let before = Before::new(world, true_poses.len());
     let mut laser_rng = rng(seed, LASER_STREAM);
     let mut tally = WallTally::new(world);
     let laser = &params.laser;
@@ -150,11 +151,13 @@ pub fn simulate(world: &World, params: &SimParams, seed: u64) -> SimRun {
         .zip(&odom)
         .enumerate()
         .map(|(k, (map_from_robot, odom_from_robot))| {
-            let reading = read_laser(&caster, map_from_robot, laser, &mut laser_rng);
+            let caster = before.caster(k).unwrap_or(&caster);
+            let reading = read_laser(caster, map_from_robot, laser, &mut laser_rng);
             reading
                 .hits
                 .iter()
                 .flatten()
+                .filter(|h| before.is_truth(k, h))
                 .for_each(|h| tally.record(world, h));
             RangeScan {
                 stamp: stamp(&params, k),
@@ -168,6 +171,45 @@ pub fn simulate(world: &World, params: &SimParams, seed: u64) -> SimRun {
         })
         .collect();
     finish(world, params, seed, scans, true_poses, tally)
+}
+
+/// The world before its change ([`World::moved`]): its ray caster and which of its walls are
+/// also walls of the world as the tour ends (the ground truth).
+struct Before {
+    caster: Option<RayCaster>,
+    /// Scans `0..until` see the world before the change.
+    until: usize,
+    /// Walls `0..kept` are the same in both worlds (pillars are never moved).
+    kept: usize,
+}
+
+impl Before {
+    fn new(world: &World, scans: usize) -> Before {
+        let Some((m, before)) = world.moved.as_ref().zip(world.before_change()) else {
+            return Before {
+                caster: None,
+                until: 0,
+                kept: world.walls.len(),
+            };
+        };
+        Before {
+            caster: Some(RayCaster::new(&before)),
+            until: (m.at_share.clamp(0.0, 1.0) * scans as f64).round() as usize,
+            kept: world.walls.len().saturating_sub(m.replaces_last),
+        }
+    }
+
+    /// The caster for scan `k`, when it sees the world before the change.
+    fn caster(&self, k: usize) -> Option<&RayCaster> {
+        self.caster.as_ref().filter(|_| k < self.until)
+    }
+
+    /// Whether scan `k`'s hit is on a wall of the final world (a hit on a wall that was moved
+    /// away is not).
+    fn is_truth(&self, k: usize, hit: &crate::raycast::RayHit) -> bool {
+        k >= self.until
+            || !matches!(hit.obstacle, crate::raycast::Obstacle::Wall(i) if i >= self.kept)
+    }
 }
 
 /// Assembles the run from its parts.

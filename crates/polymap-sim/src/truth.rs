@@ -136,6 +136,7 @@ mod tests {
 
     fn world() -> World {
         World {
+            moved: None,
             name: "t".into(),
             description: String::new(),
             walls: vec![Segment::new(Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0))],

@@ -85,6 +85,7 @@ impl Pillar {
 /// use polymap::geometry::{Pose2, Segment, Vec2};
 /// use polymap_sim::World;
 /// let world = World {
+///     moved: None,
 ///     name: "box".into(),
 ///     description: "a 4 m square".into(),
 ///     walls: vec![
@@ -114,6 +115,24 @@ pub struct World {
     /// default parameters). Default [`LaserParams::default`] (180°, 30 m).
     #[serde(default)]
     pub laser: LaserParams,
+    /// Walls that move during the tour, if any: [`World::walls`] is the world at the end of the
+    /// tour (the ground truth of the finished map), [`Moved`] says what stood before.
+    #[serde(default)]
+    pub moved: Option<Moved>,
+}
+
+/// A change of the world during the tour: a cupboard carried elsewhere, a door that opened.
+///
+/// Until scan `at_share` × (number of scans) the last `replaces_last` of [`World::walls`] are
+/// not there and `before` stands instead.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Moved {
+    /// Share of the tour's scans after which the world is [`World::walls`], in `[0, 1]`.
+    pub at_share: f64,
+    /// How many of the last walls of [`World::walls`] stand only after the change.
+    pub replaces_last: usize,
+    /// Walls standing only before the change, metres, world frame.
+    pub before: Vec<Segment>,
 }
 
 /// Name of the world mapped when no log is given: [`World::hallway45`].
@@ -166,7 +185,7 @@ impl World {
     }
 
     /// The names of the built-in worlds, default first.
-    pub fn names() -> [&'static str; 7] {
+    pub fn names() -> [&'static str; 8] {
         [
             "hallway45",
             "hex60",
@@ -175,6 +194,7 @@ impl World {
             "corridor",
             "ring",
             "hall360",
+            "moved",
         ]
     }
 
@@ -184,6 +204,35 @@ impl World {
             .into_iter()
             .filter_map(World::by_name)
             .collect()
+    }
+
+    /// A room whose cupboard is carried to another place half way through the tour, the
+    /// robot going round twice: the old place is seen empty on the second round.
+    pub fn moved() -> World {
+        worlds::moved::build()
+    }
+
+    /// The world as it stood before its change ([`World::moved`]), `None` when it does not
+    /// change.
+    ///
+    /// ```
+    /// use polymap_sim::World;
+    /// let after = World::moved();
+    /// let before = after.before_change().unwrap();
+    /// assert_eq!(before.walls.len(), after.walls.len());
+    /// assert_ne!(before.walls, after.walls);
+    /// assert!(World::office().before_change().is_none());
+    /// ```
+    pub fn before_change(&self) -> Option<World> {
+        let m = self.moved.as_ref()?;
+        let kept = self.walls.len().saturating_sub(m.replaces_last);
+        let mut walls = self.walls[..kept].to_vec();
+        walls.extend(m.before.iter().copied());
+        Some(World {
+            walls,
+            moved: None,
+            ..self.clone()
+        })
     }
 
     /// The default simulation parameters with this world's laser ([`World::laser`]).
@@ -216,6 +265,7 @@ impl World {
             "corridor" => Some(World::corridor()),
             "ring" => Some(World::ring()),
             "hall360" => Some(World::hall360()),
+            "moved" => Some(World::moved()),
             _ => None,
         }
     }
@@ -276,6 +326,14 @@ impl World {
                 .map(|&p| new_from_world.transform_point(p))
                 .collect(),
             laser: self.laser.clone(),
+            moved: self.moved.as_ref().map(|m| Moved {
+                before: m
+                    .before
+                    .iter()
+                    .map(|w| w.transformed(new_from_world))
+                    .collect(),
+                ..m.clone()
+            }),
         }
     }
 

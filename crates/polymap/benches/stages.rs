@@ -20,6 +20,9 @@
 //! - `merge`: `merge::insert_vertices`, `merge::restrictive_pairing` and `merge::simplify`, on
 //!   the map near the scan (as the mapper takes it) and the aligned scan segments; and the
 //!   whole stage, `merge::merge_scan`, on a clone of the map (cloning is not timed).
+//! - `observe`: `observe::observe_scan` of the scan from its pose, on a clone of the map
+//!   (cloning is not timed), looking at every scan (`min_travel_m = 0`; the mapper looks only
+//!   after 0.25 m or 15°, on Intel about one scan in 8).
 //! - `mapper_push`: a whole `Mapper::push`, on a clone of the mapper (cloning is not timed).
 //!
 //! Run: `cargo bench -p polymap --bench stages` (all), `... -- icp` (one group),
@@ -40,6 +43,7 @@ use polymap::config::Config;
 use polymap::directions::main_directions;
 use polymap::extract::extract_segments;
 use polymap::merge::{insert_vertices, merge_scan, restrictive_pairing, simplify};
+use polymap::observe::{ObserveParams, observe_scan};
 use support::{STEPS, Step, sources, steps, warm_scans};
 
 /// One source's stage inputs.
@@ -202,6 +206,35 @@ fn bench_merge(c: &mut Criterion, sources: &[Source]) {
     g.finish();
 }
 
+fn bench_observe(c: &mut Criterion, sources: &[Source]) {
+    let p = ObserveParams {
+        min_travel_m: 0.0,
+        ..ObserveParams::default()
+    };
+    let mut g = group(c, "observe");
+    for s in sources {
+        g.bench_function(format!("observe_scan/{}", s.name), |b| {
+            b.iter_batched(
+                || {
+                    s.steps
+                        .iter()
+                        .map(|st| st.mapper.map().clone())
+                        .collect::<Vec<_>>()
+                },
+                |mut maps| {
+                    for (map, st) in maps.iter_mut().zip(&s.steps) {
+                        let t = st.mapper.scans();
+                        black_box(observe_scan(map, &st.points, &st.pose, t, &p));
+                    }
+                    maps
+                },
+                BatchSize::SmallInput,
+            )
+        });
+    }
+    g.finish();
+}
+
 fn bench_push(c: &mut Criterion, sources: &[Source]) {
     let mut g = group(c, "mapper_push");
     g.sample_size(30);
@@ -235,6 +268,7 @@ fn main() {
     bench_icp(&mut c, &sources);
     bench_directions(&mut c, &sources);
     bench_merge(&mut c, &sources);
+    bench_observe(&mut c, &sources);
     bench_push(&mut c, &sources);
     c.final_summary();
 }

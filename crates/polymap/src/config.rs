@@ -10,6 +10,7 @@ use crate::loops::LoopParams;
 use crate::map::MapParams;
 use crate::merge::MergeParams;
 use crate::motion::{MapperParams, MotionPrior};
+use crate::observe::ObserveParams;
 use crate::polyline::PolylineParams;
 
 /// Every parameter of the pipeline, one section per stage.
@@ -37,6 +38,8 @@ pub struct Config {
     pub mapper: MapperParams,
     /// Loop closure (an addition).
     pub loops: LoopParams,
+    /// What scans observe of the map, and pruning what they contradict (an addition).
+    pub observe: ObserveParams,
 }
 
 /// Names of the presets, for help texts.
@@ -102,7 +105,7 @@ impl Config {
     /// assert_eq!(c.validate().unwrap_err().key, "directions.bins");
     /// ```
     pub fn validate(&self) -> Result<(), InvalidParam> {
-        let sections: [(&str, Result<(), InvalidParam>); 9] = [
+        let sections: [(&str, Result<(), InvalidParam>); 10] = [
             ("extract", self.extract.validate()),
             ("polyline", self.polyline.validate()),
             ("align", self.align.validate()),
@@ -112,6 +115,7 @@ impl Config {
             ("map", self.map.validate()),
             ("mapper", self.mapper.validate()),
             ("loops", self.loops.validate()),
+            ("observe", self.observe.validate()),
         ];
         for (section, checked) in sections {
             checked.map_err(|e| e.in_section(section))?;

@@ -17,6 +17,8 @@
 //!   map.
 //! - [`mapper`]: the incremental loop owning `G_t`.
 //! - [`loops`]: loop closure over a pose graph of trajectory stretches (an addition).
+//! - [`observe`]: what each scan saw of the map and saw through, and pruning the segments
+//!   later scans contradict (an addition).
 //!
 //! Support: [`geometry`] (points, SE(2) poses, segments, undirected angles), [`map`] (the map
 //! store), [`segment_index`] (the workspace's one spatial index over segments: the map's, ICP's,
@@ -37,6 +39,7 @@ pub mod map;
 pub mod mapper;
 pub mod merge;
 pub mod motion;
+pub mod observe;
 pub mod polyline;
 pub mod scan;
 pub mod segment_index;

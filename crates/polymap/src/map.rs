@@ -1,5 +1,6 @@
-//! The global map `G_t`: segments with their birth scan, a spatial index, and the queue of
-//! recent births that the main directions are computed from.
+//! The global map `G_t`: segments with their birth scan, a spatial index, the queue of
+//! recent births that the main directions are computed from, and what later scans observed of
+//! each segment ([`Observations`], kept beside the segments, see [`crate::observe`]).
 
 use serde::{Deserialize, Serialize};
 
@@ -41,6 +42,86 @@ pub struct MapSegment {
     pub born_scan: u32,
 }
 
+/// What the scans observed of one map segment (see [`crate::observe`]): when it was last seen
+/// and how often laser rays passed through where it stands.
+///
+/// Counts are in *observing scans* (scans that [`crate::observe::observe_scan`] looked with),
+/// not rays: a scan counts once per segment, as seeing it when one of its rays ends on it, else
+/// as seeing through it when its rays cross it. A segment a merge makes at scan `t` starts as
+/// seen at `t` ([`Observations::born`]).
+///
+/// ```
+/// use polymap::map::Observations;
+/// let mut o = Observations::born(3);
+/// o.saw_through();
+/// o.saw_through();
+/// assert_eq!((o.seen, o.seen_through, o.through_since_seen), (1, 2, 2));
+/// o.saw(9);
+/// assert_eq!((o.last_seen_scan, o.seen, o.through_since_seen), (9, 2, 0));
+/// ```
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct Observations {
+    /// 0-based index of the last scan that saw the segment (a ray ended on it, or its merge
+    /// made it).
+    pub last_seen_scan: u32,
+    /// Scans that saw the segment, its making included.
+    pub seen: u32,
+    /// Scans whose rays passed through the segment (and none ended on it).
+    pub seen_through: u32,
+    /// Of `seen_through`, the scans after `last_seen_scan`: the evidence against the segment
+    /// that no sighting has answered since.
+    pub through_since_seen: u32,
+}
+
+impl Observations {
+    /// The record of a segment made (so seen) by the merge of scan `t`.
+    pub fn born(t: u32) -> Self {
+        Observations {
+            last_seen_scan: t,
+            seen: 1,
+            seen_through: 0,
+            through_since_seen: 0,
+        }
+    }
+
+    /// Scan `t` saw the segment (a scan counts once: the merge that made the segment at `t`
+    /// and the rays of the same scan are one sighting).
+    pub fn saw(&mut self, t: u32) {
+        if self.seen == 0 || self.last_seen_scan != t {
+            self.seen = self.seen.saturating_add(1);
+        }
+        self.last_seen_scan = self.last_seen_scan.max(t);
+        self.through_since_seen = 0;
+    }
+
+    /// A scan saw through the segment.
+    pub fn saw_through(&mut self) {
+        self.seen_through = self.seen_through.saturating_add(1);
+        self.through_since_seen = self.through_since_seen.saturating_add(1);
+    }
+
+    /// The record of a segment made of parts with records `parts`, none seen now: the latest
+    /// sighting and the largest counts (the parts overlap in time, so a sum would count the
+    /// same scans twice), and the contradictions all parts share (the fewest); `None` for no
+    /// parts.
+    pub fn combined(parts: impl IntoIterator<Item = Observations>) -> Option<Self> {
+        parts.into_iter().reduce(|a, b| Observations {
+            last_seen_scan: a.last_seen_scan.max(b.last_seen_scan),
+            seen: a.seen.max(b.seen),
+            seen_through: a.seen_through.max(b.seen_through),
+            through_since_seen: a.through_since_seen.min(b.through_since_seen),
+        })
+    }
+
+    /// The record of a segment that the merge of scan `t` made from segments with records
+    /// `sources` and the scan's own sighting: [`Observations::combined`], seen at `t`.
+    pub fn merged(t: u32, sources: impl IntoIterator<Item = Observations>) -> Self {
+        let mut o = Observations::combined(sources).unwrap_or_default();
+        o.saw(t);
+        o
+    }
+}
+
 /// A handle to a map segment; stale handles (of removed segments) are detected.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub struct SegmentId {
@@ -63,6 +144,10 @@ pub struct SegmentId {
 #[derive(Debug, Clone)]
 pub struct GlobalMap {
     slots: Vec<(u32, Option<MapSegment>)>,
+    /// The observation record of each slot's segment (parallel to `slots`).
+    observed: Vec<Observations>,
+    /// The pose of the last scan that observed the map (see [`crate::observe`]).
+    observed_from: Option<crate::geometry::Pose2>,
     free: Vec<u32>,
     grid: SegmentIndex<SegmentId>,
     recent: Vec<(u32, SegmentId)>,
@@ -82,6 +167,8 @@ impl GlobalMap {
     pub fn new(cell_m: f64, reach_m: f64) -> Self {
         GlobalMap {
             slots: Vec::new(),
+            observed: Vec::new(),
+            observed_from: None,
             free: Vec::new(),
             grid: SegmentIndex::new(cell_m, reach_m),
             recent: Vec::new(),
@@ -91,13 +178,7 @@ impl GlobalMap {
 
     /// An empty map indexed like this one (same cell and reach).
     pub fn empty_like(&self) -> Self {
-        GlobalMap {
-            slots: Vec::new(),
-            free: Vec::new(),
-            grid: SegmentIndex::new(self.grid.cell_m(), self.grid.reach_m()),
-            recent: Vec::new(),
-            len: 0,
-        }
+        GlobalMap::new(self.grid.cell_m(), self.grid.reach_m())
     }
 
     /// Number of segments.
@@ -110,13 +191,19 @@ impl GlobalMap {
         self.len == 0
     }
 
-    /// Adds a segment and returns its handle.
+    /// Adds a segment, seen at its birth scan ([`Observations::born`]), and returns its handle.
     pub fn insert(&mut self, s: MapSegment) -> SegmentId {
+        self.insert_observed(s, Observations::born(s.born_scan))
+    }
+
+    /// Adds a segment with its observation record and returns its handle.
+    pub fn insert_observed(&mut self, s: MapSegment, observations: Observations) -> SegmentId {
         let id = match self.free.pop() {
             Some(slot) => {
                 let entry = &mut self.slots[slot as usize];
                 entry.0 += 1;
                 entry.1 = Some(s);
+                self.observed[slot as usize] = observations;
                 SegmentId {
                     slot,
                     generation: entry.0,
@@ -124,6 +211,7 @@ impl GlobalMap {
             }
             None => {
                 self.slots.push((0, Some(s)));
+                self.observed.push(observations);
                 SegmentId {
                     slot: (self.slots.len() - 1) as u32,
                     generation: 0,
@@ -159,10 +247,67 @@ impl GlobalMap {
         }
     }
 
+    /// The observation record of a segment, if it is still in the map.
+    pub fn observations(&self, id: SegmentId) -> Option<Observations> {
+        self.get(id)?;
+        self.observed.get(id.slot as usize).copied()
+    }
+
+    /// The observation record of a segment to update, if it is still in the map.
+    pub fn observations_mut(&mut self, id: SegmentId) -> Option<&mut Observations> {
+        self.get(id)?;
+        self.observed.get_mut(id.slot as usize)
+    }
+
+    /// The pose (map frame) of the last scan that observed the map, see [`crate::observe`].
+    pub fn observed_from(&self) -> Option<crate::geometry::Pose2> {
+        self.observed_from
+    }
+
+    /// Records the pose (map frame) of a scan that observed the map.
+    pub fn set_observed_from(&mut self, map_from_robot: crate::geometry::Pose2) {
+        self.observed_from = Some(map_from_robot);
+    }
+
+    /// Moves segments to new places, keeping their birth and observation records: all are
+    /// removed first, then inserted in the order given (so handles are reused as a removal
+    /// and re-insertion in that order would reuse them). Stale handles are skipped.
+    pub fn move_segments(&mut self, moves: &[(SegmentId, Segment)]) {
+        let taken: Vec<_> = moves
+            .iter()
+            .map(|(id, to)| {
+                let record = self.observations(*id);
+                self.remove(*id).zip(record).map(|(s, o)| (s, o, *to))
+            })
+            .collect();
+        for (s, o, to) in taken.into_iter().flatten() {
+            self.insert_observed(
+                MapSegment {
+                    segment: to,
+                    born_scan: s.born_scan,
+                },
+                o,
+            );
+        }
+    }
+
     /// Handles of the segments that cross the box `[lo, hi]` (map frame, metres), and possibly
     /// some that only come within the grid's reach of it; sorted.
     pub fn query(&self, lo: Vec2, hi: Vec2) -> Vec<SegmentId> {
         self.grid.in_box(lo, hi)
+    }
+
+    /// The handle of the segment nearest `p` within `max_distance_m` (map frame, metres);
+    /// ties go to the smaller handle.
+    pub fn nearest_id(&self, p: Vec2, max_distance_m: f64) -> Option<SegmentId> {
+        self.grid.nearest(p, max_distance_m).map(|(id, _, _)| id)
+    }
+
+    /// Calls `f` with every segment (handle and segment, map frame) that may cross segment
+    /// `a`–`b`: a superset of those that do, some possibly more than once; see
+    /// [`SegmentIndex::for_crossing_candidates`].
+    pub fn for_crossing_candidates(&self, a: Vec2, b: Vec2, f: impl FnMut(SegmentId, &Segment)) {
+        self.grid.for_crossing_candidates(a, b, f)
     }
 
     /// Handles of the segments within `margin_m` of segment `s` (map frame), sorted.
@@ -259,5 +404,26 @@ mod tests {
         let recent = map.born_since(2);
         assert_eq!(recent.len(), 1);
         assert_eq!(recent[0].start.x, 2.0);
+    }
+
+    #[test]
+    fn records_follow_their_segments_through_moves_and_slot_reuse() {
+        let mut map = GlobalMap::default();
+        let a = map.insert(ms(0.0, 2));
+        let b = map.insert(ms(3.0, 4));
+        map.observations_mut(a).unwrap().saw_through();
+        map.move_segments(&[(a, Segment::new(Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0)))]);
+        assert!(map.observations(a).is_none());
+        let moved: Vec<_> = map
+            .iter()
+            .map(|(id, s)| (s.born_scan, map.observations(id)))
+            .collect();
+        let mut want = Observations::born(2);
+        want.saw_through();
+        assert!(moved.contains(&(2, Some(want))));
+        assert_eq!(map.observations(b), Some(Observations::born(4)));
+        map.remove(b);
+        let c = map.insert(ms(9.0, 7));
+        assert_eq!(map.observations(c), Some(Observations::born(7)));
     }
 }

@@ -396,6 +396,54 @@ impl<K: Copy + Ord> SegmentIndex<K> {
             .collect()
     }
 
+    /// Calls `f` with every segment that may cross segment `a`–`b` (metres): those listed in
+    /// the cells the segment passes through whose distance floor there is zero (a superset of
+    /// the segments passing through the cell; a segment may come more than once). Walks the
+    /// cells in order (Amanatides–Woo), so the cost grows with the length, not the box.
+    pub fn for_crossing_candidates(&self, a: Vec2, b: Vec2, mut f: impl FnMut(K, &Segment)) {
+        // Floors are shrunk by a relative hair: a segment through a cell's corner may get a
+        // floor a rounding error above zero.
+        const FLOOR_2: f64 = 1e-12;
+        self.walk_cells(a, b, |c| {
+            if let Some(list) = self.cells.get(&c) {
+                for e in list.iter().take_while(|e| e.floor_2 <= FLOOR_2) {
+                    f(e.key, &e.segment);
+                }
+            }
+        });
+    }
+
+    /// Calls `visit` with each cell segment `a`–`b` passes through, in order from `a`
+    /// (Amanatides–Woo); where it steps through a corner, also with both cells beside it.
+    fn walk_cells(&self, a: Vec2, b: Vec2, mut visit: impl FnMut(Cell)) {
+        let (mut c, last) = (self.cell_of(a), self.cell_of(b));
+        let d = b - a;
+        let step = (d.x.signum() as i64, d.y.signum() as i64);
+        let boundary = |p: f64, i: i64, s: i64| (i + i64::from(s > 0)) as f64 * self.cell_m - p;
+        let n = (last.0 - c.0).abs() + (last.1 - c.1).abs();
+        visit(c);
+        for _ in 0..n.min(1 << 20) {
+            let tx = match d.x != 0.0 {
+                true => boundary(a.x, c.0, step.0) / d.x,
+                false => f64::INFINITY,
+            };
+            let ty = match d.y != 0.0 {
+                true => boundary(a.y, c.1, step.1) / d.y,
+                false => f64::INFINITY,
+            };
+            if (tx - ty).abs() <= 1e-12 && c.0 != last.0 && c.1 != last.1 {
+                visit((c.0 + step.0, c.1));
+                visit((c.0, c.1 + step.1));
+            }
+            if (tx < ty && c.0 != last.0) || c.1 == last.1 {
+                c.0 += step.0;
+            } else {
+                c.1 += step.1;
+            }
+            visit(c);
+        }
+    }
+
     /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come
     /// within reach of it), sorted, no repeats.
     pub fn in_box(&self, lo: Vec2, hi: Vec2) -> Vec<K> {
@@ -646,6 +694,32 @@ mod tests {
     }
 
     proptest! {
+        /// The crossing candidates hold every segment that crosses the probe (brute force).
+        #[test]
+        fn crossing_candidates_hold_every_crossing_segment(
+            raw in proptest::collection::vec((-8.0f64..8.0, -8.0f64..8.0, -8.0f64..8.0, -8.0f64..8.0), 1..30),
+            ax in -9.0f64..9.0, ay in -9.0f64..9.0, bx in -9.0f64..9.0, by in -9.0f64..9.0,
+            axis in 0u8..3,
+        ) {
+            let segs: Vec<Segment> = raw.iter().map(|&(a, b, c, e)| Segment::new(Vec2::new(a, b), Vec2::new(c, e))).collect();
+            let mut grid = SegmentIndex::new(0.5, 1.0);
+            for (i, s) in segs.iter().enumerate() { grid.insert(i, *s); }
+            // Also probes along the grid's axes and through its corners.
+            let (a, b) = match axis {
+                0 => (Vec2::new(ax, ay), Vec2::new(bx, by)),
+                1 => (Vec2::new(ax, 0.5), Vec2::new(bx, 0.5)),
+                _ => (Vec2::new(ax.round() * 0.5, ax.round() * 0.5), Vec2::new(bx.round() * 0.5, bx.round() * 0.5)),
+            };
+            let probe = Segment::new(a, b);
+            let mut found = Vec::new();
+            grid.for_crossing_candidates(a, b, |k, _| found.push(k));
+            for (i, s) in segs.iter().enumerate() {
+                if s.intersects(&probe) {
+                    prop_assert!(found.contains(&i), "segment {} crosses the probe but was not offered", i);
+                }
+            }
+        }
+
         /// A certificate's answer, when it gives one, is the search's answer.
         #[test]
         fn certified_answers_agree_with_the_search(

@@ -57,6 +57,7 @@ fn bremen_like() -> World {
         Vec2::new(30.0, 24.0),
     ];
     World {
+        moved: None,
         name: "fig7".into(),
         description: "corridor, left turn, then a 45° bend hidden behind the corner".into(),
         walls: corridor(&centre, 1.0),

@@ -6,6 +6,7 @@ mod fig7;
 mod hardening;
 mod lifelong;
 mod merge;
+mod observe;
 mod ros;
 mod support;
 mod tracking;

@@ -63,6 +63,7 @@ pub(crate) fn build() -> World {
         })
         .collect();
     World {
+        moved: None,
         name: "clutter".into(),
         description: "Open area about 34 m × 25 m inside an irregular nine-sided outline, with \
                       twelve boxes at scattered angles and eight round pillars; no dominant \

@@ -57,6 +57,7 @@ pub(crate) fn build() -> World {
         0.0,
     ));
     World {
+        moved: None,
         name: "corridor".into(),
         description: "A 42 m × 2.4 m corridor, bare but for recesses, a cabinet and a pillar near \
                       its two ends, seen with a 10 m laser. The robot drives to the far end, \

@@ -35,6 +35,7 @@ pub(crate) fn build() -> World {
         })
         .collect();
     World {
+        moved: None,
         name: "hall360".into(),
         description: "L-shaped hall 24 m × 18 m with three round pillars and two boxes, mapped \
                       by a 360° laser. The robot goes once round, then 6 m on, turns on \

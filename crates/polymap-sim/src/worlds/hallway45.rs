@@ -62,6 +62,7 @@ pub(crate) fn build() -> World {
     let mut walls = polygon_with_niches(&outer, &outer_niches());
     walls.extend(polygon_with_niches(&inner, &inner_niches()));
     World {
+        moved: None,
         name: "hallway45".into(),
         description: "Ring hallway, 2 m wide and about 78 m round, walls at 0° and 90° with \
                       door niches, and one 8.5 m stretch at 45° (the paper's Bremen hallway, \

@@ -69,6 +69,7 @@ pub(crate) fn build() -> World {
     waypoints.extend((0..6).map(|k| hex_vertex(CENTRE_RADIUS_M, (k + 5) % 6)));
     waypoints.push(v(1.0, y_bottom));
     World {
+        moved: None,
         name: "hex60".into(),
         description: "Hexagonal ring corridor, 2.4 m wide and 60 m round, with walls at 0° and \
                       ±60° only: trapezoidal niches, two half-hexagon rooms and triangular \

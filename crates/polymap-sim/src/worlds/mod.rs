@@ -6,5 +6,6 @@ pub(crate) mod corridor;
 pub(crate) mod hall360;
 pub(crate) mod hallway45;
 pub(crate) mod hex60;
+pub(crate) mod moved;
 pub(crate) mod office;
 pub(crate) mod ring;

@@ -72,6 +72,7 @@ pub(crate) fn build() -> World {
     let mut walls = corridor_walls();
     walls.extend(room_walls());
     World {
+        moved: None,
         name: "office".into(),
         description: "Office floor 32 m × 22 m: a 2 m ring corridor with five rooms on each long \
                       outer side and eight rooms in the core, all behind 0.9 m doorways in \

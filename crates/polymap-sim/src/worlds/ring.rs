@@ -31,6 +31,7 @@ pub(crate) fn build() -> World {
         0.0,
     ));
     World {
+        moved: None,
         name: "ring".into(),
         description: "Rectangular ring hallway, 2.4 m wide and 124 m round, plain walls but for \
                       one round pillar (south hallway) and one box (north hallway), seen with a \

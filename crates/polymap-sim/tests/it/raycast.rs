@@ -9,6 +9,7 @@ use proptest::prelude::*;
 
 fn world(walls: Vec<Segment>, pillars: Vec<Pillar>) -> World {
     World {
+        moved: None,
         name: "test".into(),
         description: String::new(),
         walls,

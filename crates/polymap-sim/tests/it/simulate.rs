@@ -180,6 +180,7 @@ fn invalid_parameters_fall_back_to_defaults_without_panicking() {
 #[test]
 fn degenerate_worlds_give_empty_or_tiny_runs() {
     let empty = World {
+        moved: None,
         name: "empty".into(),
         description: String::new(),
         walls: vec![],
@@ -190,6 +191,7 @@ fn degenerate_worlds_give_empty_or_tiny_runs() {
     let r = simulate(&empty, &SimParams::default(), 0);
     assert!(r.scans.is_empty() && r.walls_seen.is_empty());
     let dot = World {
+        moved: None,
         waypoints: vec![polymap::geometry::Vec2::ONE],
         laser: Default::default(),
         ..empty

@@ -20,10 +20,11 @@ use crate::directions::recent_main_directions;
 use crate::extract::{extract_segments, extract_segments_closed};
 use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, SavedNode};
-use crate::map::{GlobalMap, MapSegment};
+use crate::map::{GlobalMap, MapSegment, Observations};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
 pub use crate::motion::{MapperParams, MotionPrior};
+use crate::observe::observe_scan;
 use crate::polyline::group_polylines;
 use crate::scan::RangeScan;
 
@@ -111,6 +112,9 @@ pub struct PriorMap {
     /// Its loop-closure nodes ([`Mapper::loop_nodes`] of the run that made it), for loops
     /// between the old and the new parts; empty when not saved.
     pub nodes: Vec<SavedNode>,
+    /// Each segment's observation record (`observations[i]` for `segments[i]`), when saved;
+    /// without it the segments start as seen at their birth.
+    pub observations: Option<Vec<Observations>>,
 }
 
 /// What a run does with its map.
@@ -167,8 +171,9 @@ pub struct Mapper {
     /// `first_scan + i` (segments' `born_scan`).
     first_scan: u32,
     role: MapRole,
-    /// The saved map of a localize run, as it was given (what the run outputs).
-    saved: Option<Vec<MapSegment>>,
+    /// The saved map of a localize run, as it was given (what the run outputs), with its
+    /// observation records when it had them.
+    saved: Option<(Vec<MapSegment>, Vec<Observations>)>,
     placement: Placement,
     /// The map's scan the loop closer's first node starts at (where this run placed itself).
     loop_base: u32,
@@ -277,11 +282,24 @@ impl Mapper {
             c.map.grid_cell_m,
             prior.nodes,
         );
+        let observations = prior
+            .observations
+            .filter(|o| o.len() == prior.segments.len());
         if role == MapRole::Localize {
-            mapper.saved = Some(prior.segments.clone());
+            let given = observations.clone().unwrap_or_default();
+            mapper.saved = Some((prior.segments.clone(), given));
         }
-        for s in prior.segments {
-            mapper.map.insert(s);
+        match observations {
+            Some(observations) => {
+                for (s, o) in prior.segments.into_iter().zip(observations) {
+                    mapper.map.insert_observed(s, o);
+                }
+            }
+            None => {
+                for s in prior.segments {
+                    mapper.map.insert(s);
+                }
+            }
         }
         mapper.first_scan = prior.scans;
         mapper.loop_base = prior.scans;
@@ -332,7 +350,7 @@ impl Mapper {
     /// segments as given.
     pub fn segments(&self) -> Vec<MapSegment> {
         match &self.saved {
-            Some(saved) => saved.clone(),
+            Some((saved, _)) => saved.clone(),
             None => self.map.iter().map(|(_, s)| *s).collect(),
         }
     }
@@ -513,6 +531,15 @@ impl Mapper {
             t,
         )
         .diagnostics;
+        if !lost {
+            observe_scan(
+                &mut self.map,
+                &scan.points_in_robot,
+                &pose,
+                t,
+                &self.config.observe,
+            );
+        }
         let merged = Instant::now();
         self.scans += 1;
         self.trajectory.push(pose);
@@ -746,15 +773,10 @@ impl Mapper {
                 let segment = s.segment.transformed(&d);
                 let far = segment.start.distance_squared(s.segment.start) > STAY_M * STAY_M
                     || segment.end.distance_squared(s.segment.end) > STAY_M * STAY_M;
-                far.then_some((id, segment, s.born_scan))
+                far.then_some((id, segment))
             })
             .collect();
-        for (id, _, _) in &moved {
-            self.map.remove(*id);
-        }
-        for (_, segment, born_scan) in moved {
-            self.map.insert(MapSegment { segment, born_scan });
-        }
+        self.map.move_segments(&moved);
         let run_first = self.first_scan;
         for (i, pose) in self
             .trajectory
@@ -1095,5 +1117,6 @@ pub(crate) fn bounds(points: impl Iterator<Item = Vec2>) -> Option<(Vec2, Vec2)>
     })
 }
 
+mod observed;
 #[cfg(test)]
 mod tests;

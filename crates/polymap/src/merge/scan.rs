@@ -3,8 +3,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::{MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
-use crate::geometry::Segment;
-use crate::map::{GlobalMap, MapSegment, SegmentId};
+use crate::geometry::{Segment, angle_between_directions_rad};
+use crate::map::{GlobalMap, MapSegment, Observations, SegmentId};
 
 /// Counts through one merge.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -25,13 +25,25 @@ pub struct MergeDiagnostics {
     pub after_simplification: usize,
 }
 
-/// A member of `A_t`: a segment, its birth, and (as an index into the local map handles) the
-/// map segment it is, untouched, if any.
+/// A member of `A_t`: a segment, its birth, its observation record, and (as an index into the
+/// local map handles) the map segment it is, untouched, if any.
+///
+/// Records: a child of a map and a scan segment is its map parent's record, seen at `t`; a
+/// piece of a map segment that paired with nothing keeps its segment's record (the scan did
+/// not see it); a scan segment is born at `t`.
 struct Item {
     segment: Segment,
     born_scan: u32,
+    observations: Observations,
     unchanged: Option<usize>,
 }
+
+/// A segment that simplification merged inherits the records of the members of `A_t` within
+/// this distance of it, metres (simplification merges only segments that close)...
+const INHERIT_WITHIN_M: f64 = 0.5;
+/// ...and within this angle of its direction, degrees (a wall's record does not take a
+/// crossing segment's).
+const INHERIT_WITHIN_DEG: f64 = 30.0;
 
 /// What one merge did to the map.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -74,7 +86,11 @@ pub fn merge_scan(
 ) -> MergeResult {
     let ids = local_ids(map, scan, params.local_margin_m);
     let c1: Vec<MapSegment> = ids.iter().filter_map(|id| map.get(*id).copied()).collect();
-    let (items, mut diagnostics) = pair(&c1, scan, directions_rad, t, params);
+    let records: Vec<Observations> = ids
+        .iter()
+        .map(|id| map.observations(*id).unwrap_or_default())
+        .collect();
+    let (items, mut diagnostics) = pair(&c1, &records, scan, directions_rad, t, params);
     let simplified = simplify(
         &items.iter().map(|i| i.segment).collect::<Vec<_>>(),
         directions_rad,
@@ -91,14 +107,20 @@ pub fn merge_scan(
                 unchanged: Some(local),
                 ..
             }) => untouched[*local] = true,
-            Some(item) => new_segments.push(MapSegment {
-                segment: item.segment,
-                born_scan: item.born_scan,
-            }),
-            None => new_segments.push(MapSegment {
-                segment: s.segment,
-                born_scan: t,
-            }),
+            Some(item) => new_segments.push((
+                MapSegment {
+                    segment: item.segment,
+                    born_scan: item.born_scan,
+                },
+                item.observations,
+            )),
+            None => new_segments.push((
+                MapSegment {
+                    segment: s.segment,
+                    born_scan: t,
+                },
+                inherited(&items, &s.segment, t),
+            )),
         }
     }
     let mut removed = 0;
@@ -107,8 +129,8 @@ pub fn merge_scan(
         removed += 1;
     }
     let added = new_segments.len();
-    for s in new_segments {
-        map.insert(s);
+    for (s, observations) in new_segments {
+        map.insert_observed(s, observations);
     }
     MergeResult {
         removed,
@@ -117,10 +139,43 @@ pub fn merge_scan(
     }
 }
 
-/// Vertex insertion and restrictive pairing of the local map `c1` with the scan: `A_t` (the
-/// children, then the segments that were no parent) and the counts so far.
+/// The record of a segment that simplification merged at scan `t`, from the members of `A_t`
+/// near it and roughly parallel: seen at `t` when one of them was (a child or a scan segment), else only their
+/// records combined (merging old pieces the scan did not see is no sighting).
+fn inherited(items: &[Item], merged: &Segment, t: u32) -> Observations {
+    let direction = merged.direction_rad();
+    let (lo, hi) = merged.bounds();
+    let grow = crate::geometry::Vec2::splat(INHERIT_WITHIN_M);
+    let (lo, hi) = (lo - grow, hi + grow);
+    let near: Vec<Observations> = items
+        .iter()
+        .filter(|i| {
+            // The boxes first: most members are far from the merged segment.
+            let (a, b) = i.segment.bounds();
+            a.cmple(hi).all() && b.cmpge(lo).all()
+        })
+        .filter(|i| {
+            let turn = angle_between_directions_rad(i.segment.direction_rad(), direction);
+            turn <= INHERIT_WITHIN_DEG.to_radians()
+                && i.segment
+                    .distance_to_segment_within(merged, INHERIT_WITHIN_M)
+                    .is_some()
+        })
+        .map(|i| i.observations)
+        .collect();
+    let seen_now = near.iter().any(|o| o.last_seen_scan == t && o.seen > 0);
+    match Observations::combined(near.iter().copied()) {
+        Some(o) if !seen_now => o,
+        _ => Observations::merged(t, near),
+    }
+}
+
+/// Vertex insertion and restrictive pairing of the local map `c1` (with its observation
+/// `records`) with the scan: `A_t` (the children, then the segments that were no parent) and
+/// the counts so far.
 fn pair(
     c1: &[MapSegment],
+    records: &[Observations],
     scan: &[Segment],
     directions_rad: &[f64],
     t: u32,
@@ -140,6 +195,13 @@ fn pair(
         .map(|c| Item {
             segment: c.segment,
             born_scan: t,
+            observations: Observations::merged(
+                t,
+                map_pieces
+                    .get(c.map_parent)
+                    .and_then(|p| records.get(p.source))
+                    .copied(),
+            ),
             unchanged: None,
         })
         .collect();
@@ -149,14 +211,14 @@ fn pair(
         &map_pieces,
         &pairing.map_is_parent,
         rejoin,
-        |i| (c1_segs[i], c1[i].born_scan, Some(i)),
+        |i| (c1_segs[i], c1[i].born_scan, records[i], Some(i)),
     );
     keep_non_parents(
         &mut items,
         &scan_pieces,
         &pairing.scan_is_parent,
         rejoin,
-        |i| (scan[i], t, None),
+        |i| (scan[i], t, Observations::born(t), None),
     );
     let diagnostics = MergeDiagnostics {
         map_pieces: map_pieces.len(),
@@ -188,13 +250,13 @@ fn segments(pieces: &[Piece]) -> Vec<Segment> {
 
 /// Adds the pieces that did not become parents to `A_t`. With `rejoin`, a split segment none of
 /// whose pieces became a parent goes back as the whole original (from `original(source)`: the
-/// segment, its birth, and its local index if it is a map segment).
+/// segment, its birth, its observation record, and its local index if it is a map segment).
 fn keep_non_parents(
     items: &mut Vec<Item>,
     pieces: &[Piece],
     is_parent: &[bool],
     rejoin: bool,
-    original: impl Fn(usize) -> (Segment, u32, Option<usize>),
+    original: impl Fn(usize) -> (Segment, u32, Observations, Option<usize>),
 ) {
     let mut i = 0;
     while i < pieces.len() {
@@ -204,11 +266,12 @@ fn keep_non_parents(
             .take_while(|p| p.source == source)
             .count();
         let any_parent = is_parent[i..end].iter().any(|p| *p);
-        let (whole, born_scan, id) = original(source);
+        let (whole, born_scan, observations, id) = original(source);
         if !any_parent && (rejoin || end - i == 1) {
             items.push(Item {
                 segment: whole,
                 born_scan,
+                observations,
                 unchanged: id,
             });
         } else {
@@ -220,6 +283,7 @@ fn keep_non_parents(
                 items.push(Item {
                     segment: piece.segment,
                     born_scan,
+                    observations,
                     unchanged: None,
                 });
             }

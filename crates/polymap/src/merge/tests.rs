@@ -323,3 +323,59 @@ mod prop {
         }
     }
 }
+
+/// The observation records through one merge: the wall the scan saw again is seen at `t` with
+/// its counts kept; a ghost near the scan that paired with nothing keeps its record; a scan
+/// segment that paired with nothing is born at `t`. (Found writing it: the merged wall took the
+/// crossing ghost's counts, until inheritance asked for roughly parallel members.)
+#[test]
+fn merged_segments_inherit_their_sources_records() {
+    use crate::map::{GlobalMap, MapSegment, Observations};
+    let mut map = GlobalMap::default();
+    let mut wall_record = Observations::born(0);
+    for t in 1..6 {
+        wall_record.saw(t);
+    }
+    for _ in 0..3 {
+        wall_record.saw_through();
+    }
+    let wall = MapSegment {
+        segment: seg(0.0, 0.0, 4.0, 0.0),
+        born_scan: 0,
+    };
+    map.insert_observed(wall, wall_record);
+    let mut ghost_record = Observations::born(2);
+    for _ in 0..4 {
+        ghost_record.saw_through();
+    }
+    let ghost = MapSegment {
+        segment: seg(1.0, 0.5, 1.0, 1.2),
+        born_scan: 2,
+    };
+    map.insert_observed(ghost, ghost_record);
+    let scan = [seg(0.5, 0.01, 4.5, 0.01), seg(2.0, 3.0, 3.0, 3.0)];
+    merge_scan(
+        &MergeParams::default(),
+        &mut map,
+        &scan,
+        &[0.0, deg(90.0)],
+        9,
+    );
+    let records: Vec<(Segment, Observations)> = map
+        .iter()
+        .map(|(id, s)| (s.segment, map.observations(id).unwrap()))
+        .collect();
+    let on = |y: f64, x: f64| {
+        records
+            .iter()
+            .find(|(s, _)| (s.midpoint().y - y).abs() < 0.1 && (s.midpoint().x - x).abs() < 0.6)
+            .map(|(_, o)| *o)
+            .expect("a segment there")
+    };
+    let merged = on(0.0, 2.2);
+    assert_eq!(merged.last_seen_scan, 9);
+    assert_eq!((merged.seen, merged.seen_through), (7, 3));
+    assert_eq!(merged.through_since_seen, 0);
+    assert_eq!(on(0.85, 1.0), ghost_record);
+    assert_eq!(on(3.0, 2.5), Observations::born(9));
+}

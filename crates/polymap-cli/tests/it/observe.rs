@@ -1,0 +1,82 @@
+//! Keeping the map true (issue 12 item 4): a cupboard carried away half way through the
+//! simulated `moved` tour leaves a ghost in the map; `--prune-contradicted` removes it and no
+//! segment on a true wall.
+
+use std::path::Path;
+
+use polymap::geometry::Segment;
+use polymap_io::map_json::{MapJson, read_map_json};
+
+use crate::support::{map_quietly, polymap, sim, text};
+
+/// Both endpoints of `s` within `tol_m` of one of `walls`.
+fn on_any(s: &Segment, walls: &[Segment], tol_m: f64) -> bool {
+    walls
+        .iter()
+        .any(|w| w.distance_to_point(s.start) <= tol_m && w.distance_to_point(s.end) <= tol_m)
+}
+
+fn segments(map: &MapJson) -> Vec<Segment> {
+    map.map_segments().iter().map(|m| m.segment).collect()
+}
+
+fn map_dir(log: &Path, out: &Path, extra: &[&str]) -> MapJson {
+    let o = map_quietly(log, out, extra);
+    assert!(o.status.success(), "{}", text(&o));
+    read_map_json(out.join("map.json")).expect("map.json reads")
+}
+
+#[test]
+fn pruning_removes_the_moved_cupboards_ghost_and_keeps_the_walls() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim_dir = dir.path().join("sim");
+    let o = polymap(&["simulate", "moved", "-o", sim_dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let log = sim_dir.join("moved.clf");
+    // The cupboard where it stood for the first half, in the map frame (the first scan's).
+    let run = sim("moved");
+    let first_from_world = run.first_from_world();
+    let world = polymap_sim::World::moved();
+    let ghost: Vec<Segment> = world
+        .moved
+        .as_ref()
+        .unwrap()
+        .before
+        .iter()
+        .map(|w| w.transformed(&first_from_world))
+        .collect();
+    let truth = segments(&read_map_json(sim_dir.join("moved.walls.json")).unwrap());
+
+    let kept = map_dir(&log, &dir.path().join("keep"), &[]);
+    let kept_segments = segments(&kept);
+    let ghosts = |segs: &[Segment]| segs.iter().filter(|s| on_any(s, &ghost, 0.3)).count();
+    assert!(
+        ghosts(&kept_segments) >= 2,
+        "the ghost is in the map without pruning"
+    );
+    let records = kept.observations().expect("every segment has its record");
+    assert!(records.iter().any(|o| o.through_since_seen > 0));
+
+    let pruned_dir = dir.path().join("prune");
+    let pruned = map_dir(&log, &pruned_dir, &["--prune-contradicted"]);
+    let pruned_segments = segments(&pruned);
+    assert_eq!(ghosts(&pruned_segments), 0, "the ghost is gone");
+    let on_walls = |segs: &[Segment]| -> Vec<Segment> {
+        segs.iter()
+            .filter(|s| on_any(s, &truth, 0.25))
+            .copied()
+            .collect()
+    };
+    assert!(on_walls(&kept_segments).len() >= 8);
+    assert_eq!(
+        on_walls(&kept_segments),
+        on_walls(&pruned_segments),
+        "no true wall lost"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(pruned_dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(
+        summary["pruned_segments"].as_u64(),
+        Some((kept_segments.len() - pruned_segments.len()) as u64)
+    );
+}

@@ -1,0 +1,26 @@
+//! The mapper's side of [`crate::observe`]: the segments' observation records and pruning.
+
+use super::Mapper;
+use crate::map::Observations;
+use crate::observe::prune_contradicted;
+
+impl Mapper {
+    /// The observation record of each segment of [`Mapper::segments`], in the same order (in a
+    /// localize run, the saved map's records as given: empty when it had none).
+    pub fn observations(&self) -> Vec<Observations> {
+        if let Some((_, given)) = &self.saved {
+            return given.clone();
+        }
+        self.map
+            .iter()
+            .filter_map(|(id, _)| self.map.observations(id))
+            .collect()
+    }
+
+    /// Removes the segments that later scans contradict
+    /// ([`crate::observe::prune_contradicted`] under the `[observe]` parameters); returns how
+    /// many. For the end of a run (after [`Mapper::finish`]).
+    pub fn prune_contradicted(&mut self) -> usize {
+        prune_contradicted(&mut self.map, &self.config.observe)
+    }
+}
