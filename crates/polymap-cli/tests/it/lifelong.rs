@@ -64,6 +64,19 @@ fn ate_m(estimate: &Path, truth: &Path) -> f64 {
     v["ate"]["position_m"]["mean"].as_f64().unwrap()
 }
 
+/// `polymap localize LOG --map MAP -o OUT -q`.
+fn localize(log: &Path, map: &Path, out: &Path) -> std::process::Output {
+    polymap(&[
+        "localize",
+        log.to_str().unwrap(),
+        "--map",
+        map.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "-q",
+    ])
+}
+
 /// Poses `x y theta` of a TUM file.
 fn poses(path: &Path) -> Vec<[f64; 3]> {
     tum_lines(path)
@@ -148,15 +161,7 @@ fn localize_finds_the_start_without_a_hint_and_leaves_the_map_as_it_was() {
     let (a, b) = (dir.path().join("a.clf"), dir.path().join("b.clf"));
     split_log(&log, 1000, &a, &b);
     let out = dir.path().join("L");
-    let o = polymap(&[
-        "localize",
-        b.to_str().unwrap(),
-        "--map",
-        full.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = localize(&b, &full, &out);
     assert!(o.status.success(), "{}", text(&o));
     let summary = json(&out.join("summary.json"));
     assert_eq!(summary["placed"], true);
@@ -194,15 +199,7 @@ fn a_start_elsewhere_is_refused_and_an_initial_pose_is_taken() {
     assert!(map_quietly(&office, &map, &[]).status.success());
     // A log of another building: its start is nowhere in this map.
     let out = dir.path().join("L");
-    let o = polymap(&[
-        "localize",
-        hex.to_str().unwrap(),
-        "--map",
-        map.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = localize(&hex, &map, &out);
     assert!(!o.status.success(), "{}", text(&o));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("start was not found"), "{err}");
@@ -284,15 +281,7 @@ fn resume_and_localize_on_the_shared_fr079_log() {
         let o = map_quietly(input, out, &extra);
         assert!(o.status.success(), "{}", text(&o));
     }
-    let o = polymap(&[
-        "localize",
-        b.to_str().unwrap(),
-        "--map",
-        full.to_str().unwrap(),
-        "-o",
-        out_l.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = localize(&b, &full, &out_l);
     assert!(o.status.success(), "{}", text(&o));
     let error = |tum: &Path| {
         let out = polymap(&[

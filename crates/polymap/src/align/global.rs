@@ -98,20 +98,6 @@ impl GlobalSearch {
     }
 }
 
-/// [`GlobalSearch::peaks`] on a map prepared for this one search.
-pub fn global_peaks(
-    map: &GlobalMap,
-    points_in_robot: &[Vec2],
-    hint: Option<(Pose2, f64, f64)>,
-    max_peaks: usize,
-    max_range_m: f64,
-    params: &TrackParams,
-) -> Vec<Candidate> {
-    GlobalSearch::new(map, params).map_or_else(Vec::new, |g| {
-        g.peaks(points_in_robot, hint, max_peaks, max_range_m, params)
-    })
-}
-
 /// The bounding box of the map's segments; `None` for an empty map.
 pub fn map_bounds(map: &GlobalMap) -> Option<(Vec2, Vec2)> {
     map.iter()
@@ -144,6 +130,19 @@ mod tests {
         (0..corners.len())
             .map(|i| Segment::new(corners[i], corners[(i + 1) % corners.len()]))
             .collect()
+    }
+
+    /// The peaks of a search over all of `map` prepared for it, points up to 8 m.
+    fn peaks(
+        map: &GlobalMap,
+        points: &[Vec2],
+        hint: Option<(Pose2, f64, f64)>,
+        max: usize,
+    ) -> Vec<Candidate> {
+        let params = TrackParams::default();
+        GlobalSearch::new(map, &params)
+            .expect("a map with segments")
+            .peaks(points, hint, max, 8.0, &params)
     }
 
     fn map_of(segments: &[Segment]) -> GlobalMap {
@@ -191,14 +190,13 @@ mod tests {
     fn finds_a_scan_anywhere_in_the_map_at_any_heading() {
         let walls = room();
         let map = map_of(&walls);
-        let params = TrackParams::default();
         for truth in [
             Pose2::new(2.0, 2.0, 0.3),
             Pose2::new(10.5, 3.0, -2.5),
             Pose2::new(5.0, 7.5, 3.0),
         ] {
             let points = scan_from(&walls, truth);
-            let peaks = global_peaks(&map, &points, None, 3, 8.0, &params);
+            let peaks = peaks(&map, &points, None, 3);
             let best = peaks.first().expect("a peak").map_from_robot;
             let d = truth.between(&best);
             assert!(
@@ -215,7 +213,7 @@ mod tests {
         let params = TrackParams::default();
         let truth = Pose2::new(2.0, 2.0, 0.3);
         let points = scan_from(&walls, truth);
-        let near = global_peaks(&map, &points, Some((truth, 0.5, 0.2)), 1, 8.0, &params);
+        let near = peaks(&map, &points, Some((truth, 0.5, 0.2)), 1);
         assert!(
             near[0]
                 .map_from_robot
@@ -225,13 +223,13 @@ mod tests {
         );
         // A window far from the truth cannot hold it.
         let far = Pose2::new(10.0, 2.0, 0.3);
-        let elsewhere = global_peaks(&map, &points, Some((far, 0.5, 0.2)), 1, 8.0, &params);
+        let elsewhere = peaks(&map, &points, Some((far, 0.5, 0.2)), 1);
         assert!(
             elsewhere
                 .iter()
                 .all(|c| c.map_from_robot.translation().distance(truth.translation()) > 7.0)
         );
-        assert!(global_peaks(&GlobalMap::new(1.0, 1.0), &points, None, 3, 8.0, &params).is_empty());
-        assert!(global_peaks(&map, &[], None, 3, 8.0, &params).is_empty());
+        assert!(GlobalSearch::new(&GlobalMap::new(1.0, 1.0), &params).is_none());
+        assert!(peaks(&map, &[], None, 3).is_empty());
     }
 }

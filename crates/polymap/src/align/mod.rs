@@ -40,7 +40,7 @@ use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::segment_index::NearestCertificate;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
-pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, global_peaks, map_bounds};
+pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, map_bounds};
 pub use pair_search::{
     GlobalMatch, GlobalParams, MatchVerdict, MovingSide, ScoredPose, global_match, overlap_share,
     points_along,

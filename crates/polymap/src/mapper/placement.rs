@@ -4,6 +4,7 @@
 
 use super::tracking::better;
 use super::*;
+use crate::align::points_along;
 
 /// A start given by the user is searched within this distance (each axis), metres...
 const NEAR_START_M: f64 = 1.0;
@@ -26,12 +27,6 @@ fn apart_by(a: &Pose2, b: &Pose2, params: &crate::align::TrackParams) -> bool {
     let d = a.between(b);
     d.translation().length() > params.rival_apart_m
         || normalize_angle_rad(d.theta_rad).abs() > params.rival_apart_deg.to_radians()
-}
-
-/// Points along a segment, `spacing_m` apart (metres), both ends included.
-fn points_along(segment: &Segment, spacing_m: f64) -> impl Iterator<Item = Vec2> + '_ {
-    let n = (segment.length() / spacing_m).ceil().clamp(1.0, 1e6) as usize;
-    (0..=n).map(move |k| segment.start + (segment.end - segment.start) * (k as f64 / n as f64))
 }
 
 impl Mapper {
@@ -76,10 +71,9 @@ impl Mapper {
             .get_or_insert_with(|| Box::new(Mapper::new(local_config)));
         let local_pose = local.push_prepared(scan.clone()).map_from_robot;
         let robot_from_local = local_pose.inverse();
-        let mut points: Vec<Vec2> = local
-            .map()
-            .iter()
-            .flat_map(|(_, s)| points_along(&s.segment, PLACE_POINT_SPACING_M))
+        let own: Vec<Segment> = local.map().iter().map(|(_, s)| s.segment).collect();
+        let mut points: Vec<Vec2> = points_along(&own, PLACE_POINT_SPACING_M)
+            .into_iter()
             .map(|p| robot_from_local.transform_point(p))
             .collect();
         if points.is_empty() {

@@ -68,11 +68,7 @@ impl Mapper {
     /// A window over the whole map and the whole circle, for re-localizing a robot lost for a
     /// while (it may have been carried anywhere); `None` for an empty map.
     fn whole_map_window(&self, guess: &Pose2) -> Option<SearchWindow> {
-        let (lo, hi) = bounds(
-            self.map
-                .iter()
-                .flat_map(|(_, s)| [s.segment.start, s.segment.end]),
-        )?;
+        let (lo, hi) = crate::align::map_bounds(&self.map)?;
         let center = (lo + hi) * 0.5;
         Some(SearchWindow {
             center: Pose2::new(center.x, center.y, guess.theta_rad),
