@@ -36,7 +36,6 @@ pub fn config(odometry: bool) -> Config {
     let mut config = Config::default();
     if odometry {
         config.mapper.motion_prior = MotionPrior::Odometry;
-        config.mapper.icp_from_best_start_only = false;
     }
     config
 }
@@ -125,7 +124,9 @@ pub fn jumps(mapped: &Mapped, jump_m: f64) -> Vec<usize> {
         .iter()
         .enumerate()
         .map(|(i, &e)| (i + 1, e))
-        .filter(|&(i, e)| e > jump_m && !mapped.corrected[i])
+        // A correction reported with scan i - 1 moves the map after that scan's pose was
+        // taken: the step to scan i spans it.
+        .filter(|&(i, e)| e > jump_m && !mapped.corrected[i] && !mapped.corrected[i - 1])
         .map(|(i, _)| i)
         .collect()
 }

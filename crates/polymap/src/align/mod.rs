@@ -213,6 +213,23 @@ pub struct AlignResult {
     /// direction was unobservable (along a corridor, its axis); `None` otherwise.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weak_direction_deg: Option<f64>,
+    /// How well the final correspondences fix the translation (before the weak directions
+    /// were put on the anchor).
+    #[serde(default)]
+    pub translation_information: TranslationInformation,
+}
+
+/// How well a fit fixes the translation, the rotation marginalized out: the eigenvalues of the
+/// translation information, in fully weighted correspondences per m² (a wall seen by n inlier
+/// points adds about n across itself and nothing along it).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct TranslationInformation {
+    /// Along the least observed direction (near 0 along a bare corridor).
+    pub weakest: f64,
+    /// Along the best observed direction.
+    pub strongest: f64,
+    /// Map-frame direction of the least observed translation, degrees in `[0, 180)`.
+    pub weakest_deg: f64,
 }
 
 /// Nearest-segment queries against a set of map segments (map frame).

@@ -2,7 +2,7 @@
 
 use glam::{DMat3, DVec3};
 
-use super::{AlignParams, AlignResult};
+use super::{AlignParams, AlignResult, TranslationInformation};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 
 /// A point of the scan that should lie on a line of the map.
@@ -140,6 +140,42 @@ fn anchor_weak_directions(
     (weak, direction)
 }
 
+/// The translation information of `h` with the rotation marginalized (its Schur complement);
+/// zero when `h` is not finite.
+fn translation_information(h: &DMat3) -> TranslationInformation {
+    let (xx, xy, yy) = (h.x_axis.x, h.y_axis.x, h.y_axis.y);
+    let (xr, yr, rr) = (h.z_axis.x, h.z_axis.y, h.z_axis.z);
+    let (a, b, c) = if rr > 1e-12 {
+        (xx - xr * xr / rr, xy - xr * yr / rr, yy - yr * yr / rr)
+    } else {
+        (xx, xy, yy)
+    };
+    let mean = 0.5 * (a + c);
+    let spread = (0.25 * (a - c) * (a - c) + b * b).sqrt();
+    let weakest = mean - spread;
+    // The eigenvector of the smaller eigenvalue: (b, λ − a), or (λ − c, b); the longer one.
+    let (u, v) = ((b, weakest - a), (weakest - c, b));
+    let (dx, dy) = if u.0.hypot(u.1) >= v.0.hypot(v.1) {
+        u
+    } else {
+        v
+    };
+    let info = TranslationInformation {
+        weakest: weakest.max(0.0),
+        strongest: (mean + spread).max(0.0),
+        weakest_deg: if dx == 0.0 && dy == 0.0 {
+            0.0
+        } else {
+            dy.atan2(dx).to_degrees().rem_euclid(180.0)
+        },
+    };
+    if info.weakest.is_finite() && info.strongest.is_finite() && info.weakest_deg.is_finite() {
+        info
+    } else {
+        TranslationInformation::default()
+    }
+}
+
 /// Eigenvalues and eigenvectors (as columns) of a symmetric 3×3 matrix, by cyclic Jacobi
 /// rotations.
 pub(crate) fn symmetric_eigen(m: DMat3) -> ([f64; 3], DMat3) {
@@ -213,6 +249,7 @@ pub(crate) fn run_icp(
         converged: false,
         weak_directions: 0,
         weak_direction_deg: None,
+        translation_information: TranslationInformation::default(),
     };
     for i in 0..params.max_iterations {
         constraints.clear();
@@ -227,6 +264,7 @@ pub(crate) fn run_icp(
             converged: false,
             weak_directions: 0,
             weak_direction_deg: None,
+            translation_information: TranslationInformation::default(),
         };
         if constraints.len() < params.min_correspondences {
             result.map_from_robot = anchor;
@@ -253,6 +291,8 @@ pub(crate) fn run_icp(
             break;
         }
     }
+    result.translation_information =
+        translation_information(&normal_equations(&constraints, &result.map_from_robot, params).0);
     let (weak, direction) =
         anchor_weak_directions(&constraints, &mut result.map_from_robot, &anchor, params);
     result.weak_directions = weak;
@@ -263,6 +303,45 @@ pub(crate) fn run_icp(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn translation_information_names_a_corridor_axis() {
+        // Walls along x at y = ±1, 20 points each, every 0.2 m: nothing fixes x.
+        let constraints: Vec<Constraint> = (0..40)
+            .map(|i| {
+                let y = if i % 2 == 0 { 1.0 } else { -1.0 };
+                Constraint {
+                    p_in_robot: Vec2::new(-2.0 + 0.2 * (i / 2) as f64, y),
+                    q_in_map: Vec2::new(0.0, y),
+                    normal: Vec2::Y,
+                }
+            })
+            .collect();
+        let params = AlignParams::default();
+        let pose = Pose2::IDENTITY;
+        let along = |deg: f64| {
+            let info = translation_information(&normal_equations(&constraints, &pose, &params).0);
+            (
+                info,
+                (info.weakest_deg - deg)
+                    .abs()
+                    .min(180.0 - (info.weakest_deg - deg).abs()),
+            )
+        };
+        let (info, off_deg) = along(0.0);
+        assert!(info.weakest < 1e-9, "{info:?}");
+        assert!((info.strongest - 40.0).abs() < 1.0, "{info:?}");
+        assert!(off_deg < 1e-6, "{info:?}");
+        // A wall across the corridor (normal along x) observes x: 10 points.
+        let mut closed = constraints.clone();
+        closed.extend((0..10).map(|i| Constraint {
+            p_in_robot: Vec2::new(5.0, -0.9 + 0.2 * i as f64),
+            q_in_map: Vec2::new(5.0, 0.0),
+            normal: Vec2::X,
+        }));
+        let info = translation_information(&normal_equations(&closed, &Pose2::IDENTITY, &params).0);
+        assert!(info.weakest > 5.0, "{info:?}");
+    }
 
     #[test]
     fn jacobi_eigen_reconstructs_the_matrix() {

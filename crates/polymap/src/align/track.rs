@@ -78,6 +78,12 @@ pub struct TrackParams {
     pub lost_below_inlier_ratio: f64,
     /// ...and `weak` when fewer than this share are.
     pub weak_below_inlier_ratio: f64,
+    /// A scan whose least observed translation has less information than this (fully weighted
+    /// correspondences per m², the rotation marginalized; see
+    /// [`crate::align::TranslationInformation`]) is `weak` (`weakly_observed`): along that
+    /// direction (a corridor with little across it) the fit may slide on small errors of the
+    /// map. 0 turns it off.
+    pub weak_below_information: f64,
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
@@ -128,6 +134,7 @@ impl Default for TrackParams {
             weak_below_inlier_share: 0.4,
             lost_below_inlier_ratio: 0.5,
             weak_below_inlier_ratio: 0.6,
+            weak_below_information: 5.0,
             search_win_margin: 0.1,
             merge_doubtful_scans: true,
             odometry_check_m: 0.3,
@@ -182,6 +189,12 @@ impl TrackParams {
             .share("weak_below_inlier_share", self.weak_below_inlier_share)
             .share("lost_below_inlier_ratio", self.lost_below_inlier_ratio)
             .share("weak_below_inlier_ratio", self.weak_below_inlier_ratio)
+            .within(
+                "weak_below_information",
+                self.weak_below_information,
+                0.0,
+                1e6,
+            )
             .within("search_win_margin", self.search_win_margin, 0.0, 10.0)
             .within("odometry_check_m", self.odometry_check_m, 0.0, 1e3)
             .within("odometry_check_deg", self.odometry_check_deg, 0.0, 180.0)
@@ -223,6 +236,9 @@ pub enum Reason {
     Fit,
     /// Enough points fit, but some direction was unobservable (a bare corridor).
     Degenerate,
+    /// Enough points fit, but one direction is observed by few of them (a corridor with little
+    /// across it): the pose may have slid along it (`tracking.weak_below_information`).
+    WeaklyObserved,
     /// Enough points fit to keep the scan, too few to trust it.
     PoorFit,
     /// The window search found a distinct pose that explains the scan about as well.
@@ -491,8 +507,14 @@ pub fn verdict(
         (Verdict::Weak, Reason::PoorFit)
     } else if r.weak_directions > 0 {
         (Verdict::Weak, Reason::Degenerate)
+    } else if r.translation_information.weakest < params.weak_below_information {
+        (Verdict::Weak, Reason::WeaklyObserved)
     } else {
         (Verdict::Ok, Reason::Fit)
+    };
+    let weak_direction_deg = match reason {
+        Reason::WeaklyObserved => Some(r.translation_information.weakest_deg),
+        _ => r.weak_direction_deg,
     };
     Tracking {
         verdict,
@@ -500,7 +522,7 @@ pub fn verdict(
         inlier_share: share,
         searched: false,
         search_won: false,
-        weak_direction_deg: r.weak_direction_deg,
+        weak_direction_deg,
     }
 }
 
@@ -537,6 +559,7 @@ impl LoosePoints {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::align::TranslationInformation;
 
     #[test]
     fn the_window_grows_with_the_motion_and_when_lost() {
@@ -565,6 +588,11 @@ mod tests {
             converged: true,
             weak_directions: 0,
             weak_direction_deg: None,
+            translation_information: TranslationInformation {
+                weakest: 50.0,
+                strongest: 100.0,
+                weakest_deg: 0.0,
+            },
         };
         assert!(!should_search(
             &anchor,
@@ -599,6 +627,11 @@ mod tests {
             converged: true,
             weak_directions: 0,
             weak_direction_deg: None,
+            translation_information: TranslationInformation {
+                weakest: 50.0,
+                strongest: 100.0,
+                weakest_deg: 0.0,
+            },
         };
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Ok);
         r.weak_directions = 1;
