@@ -17,6 +17,14 @@ struct OpenNode {
     submap: Submap,
     /// Cells of the kept points, for thinning.
     cells: rustc_hash::FxHashSet<(i64, i64)>,
+    /// Scans in the node so far.
+    scans: u32,
+    /// Path length since the node's first scan, metres.
+    travel_m: f64,
+    /// Scans and path length (metres) since the last scan that fed the submap.
+    since_kept: (u32, f64),
+    /// The last scan's pose, map frame.
+    last: Pose2,
 }
 
 /// A node of a saved map's loop closure: what a run that continues the map needs of it to
@@ -47,6 +55,10 @@ pub struct LoopCloser {
     failure: Option<LoopFailure>,
     /// Nodes of a saved map before this run's first node (0 for a new map).
     first_new: usize,
+    /// The first scan (`t`) of each of this run's nodes.
+    node_starts: Vec<u32>,
+    /// Whether `open` holds a node (false before the first scan and after a node ends).
+    is_open: bool,
 }
 
 impl LoopCloser {
@@ -71,6 +83,8 @@ impl LoopCloser {
             loop_edges: 0,
             failure: None,
             first_new: 0,
+            node_starts: Vec::new(),
+            is_open: false,
         }
     }
 
@@ -123,9 +137,19 @@ impl LoopCloser {
     }
 
     /// The node that scan `t` of this run belongs to (`t` counted from the scan where loop
-    /// closure starts).
+    /// closure starts; a scan not yet handed over belongs to the last node started).
     pub fn node_of(&self, t: u32) -> usize {
-        self.first_new + (t / self.params.node_scans) as usize
+        let started = self.node_starts.partition_point(|&s| s <= t);
+        self.first_new + started.saturating_sub(1)
+    }
+
+    /// The first scan (`t`, counted like [`LoopCloser::node_of`]'s) of node `node` of this
+    /// run; 0 for a saved map's node, `u32::MAX` for a node not yet started.
+    pub fn node_start(&self, node: usize) -> u32 {
+        match node.checked_sub(self.first_new) {
+            None => 0,
+            Some(i) => self.node_starts.get(i).copied().unwrap_or(u32::MAX),
+        }
     }
 
     /// The failure that stopped loop closure, if one did (a panic while matching or
@@ -164,18 +188,32 @@ impl LoopCloser {
         if self.failure.is_some() {
             return None;
         }
-        let ns = self.params.node_scans;
-        let k = self.node_of(t);
-        if self.poses.len() <= k {
+        if !self.is_open {
+            self.node_starts.push(t);
             // A saved map's last node is no neighbour of this run's first: no motion joins them.
-            let previous = self.poses.last().filter(|_| k > self.first_new);
+            let first = self.node_starts.len() == 1;
+            let previous = self.poses.last().filter(|_| !first);
             self.open = OpenNode {
                 from_previous: previous.map(|last| last.between(&map_from_robot)),
+                last: map_from_robot,
                 ..OpenNode::default()
             };
             self.poses.push(map_from_robot);
+            self.is_open = true;
         }
-        if (t % ns).is_multiple_of(self.params.node_keep_every) {
+        let k = self.poses.len() - 1;
+        let step_m = (map_from_robot.translation() - self.open.last.translation()).length();
+        self.open.last = map_from_robot;
+        self.open.travel_m += step_m;
+        self.open.since_kept.1 += step_m;
+        let p = &self.params;
+        let keep = self.open.scans == 0
+            || self.open.since_kept.0 + 1 >= p.node_keep_every
+            || (p.node_keep_travel_m > 0.0 && self.open.since_kept.1 >= p.node_keep_travel_m);
+        self.open.scans += 1;
+        self.open.since_kept.0 += 1;
+        if keep {
+            self.open.since_kept = (0, 0.0);
             let node_from_robot = self.poses[k].between(&map_from_robot);
             let spacing = self.params.node_point_spacing_m;
             let open = &mut self.open;
@@ -195,9 +233,13 @@ impl LoopCloser {
                     .map(|s| s.transformed(&node_from_robot)),
             );
         }
-        if !(t + 1).is_multiple_of(ns) {
+        let p = &self.params;
+        let ends = self.open.scans >= p.node_scans
+            || (p.node_travel_m > 0.0 && self.open.travel_m >= p.node_travel_m);
+        if !ends {
             return None;
         }
+        self.is_open = false;
         let open = std::mem::take(&mut self.open);
         self.worker.hand_over(NodeDone {
             node: k,

@@ -5,9 +5,12 @@
 //! snaps onto what it mapped before. With more drift than ICP's basin it maps the place a second
 //! time beside the first, and from then on tracks against the copy. Here:
 //!
-//! - Every `node_scans` scans start a **node**, posed at its first scan; a node keeps a small
-//!   submap in its own frame (the points and segments of every `node_keep_every`-th of its
-//!   scans, points thinned to `node_point_spacing_m`).
+//! - A **node** is a run of consecutive scans, posed at its first: it ends after `node_scans`
+//!   scans or once the robot has travelled `node_travel_m` since its first scan, whichever
+//!   comes first (so that sparse scans do not make nodes span more ground). A node keeps a small
+//!   submap in its own frame (the points and segments of its first scan and then of every
+//!   `node_keep_every`-th scan, or sooner after `node_keep_travel_m` of travel; points thinned
+//!   to `node_point_spacing_m`).
 //! - Consecutive nodes are joined by a **sequential edge**: the mapper's relative pose.
 //! - When a node is complete, older nodes (at least `min_node_gap` nodes back) whose pose lies
 //!   within `search_radius_m` are **candidates**. The node's points are aligned by ICP to the

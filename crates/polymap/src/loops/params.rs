@@ -17,10 +17,17 @@ pub struct LoopParams {
     /// The graph's outcome for node `k` is taken in at the end of node `k +
     /// apply_after_nodes` (the mapper waits for it then if need be).
     pub apply_after_nodes: usize,
-    /// Scans per node.
+    /// Scans per node at most.
     pub node_scans: u32,
-    /// Every this many scans of a node feed its submap.
+    /// A node also ends once the robot has travelled this far (path length, metres) since its
+    /// first scan, so that a node covers about the same ground however far apart the scans
+    /// are (a sparse log, `--every K`); 0 turns it off.
+    pub node_travel_m: f64,
+    /// Every this many scans of a node feed its submap...
     pub node_keep_every: u32,
+    /// ...or sooner, once the robot has travelled this far (path length, metres) since the
+    /// last scan that fed it; 0 turns it off.
+    pub node_keep_travel_m: f64,
     /// The submap's points are thinned to this spacing, metres.
     pub node_point_spacing_m: f64,
     /// Candidates are at least this many nodes older than the node matched.
@@ -80,7 +87,9 @@ impl Default for LoopParams {
             background: true,
             apply_after_nodes: 5,
             node_scans: 20,
+            node_travel_m: 2.0,
             node_keep_every: 5,
+            node_keep_travel_m: 0.4,
             node_point_spacing_m: 0.1,
             min_node_gap: 15,
             skip_after_closure: 2,
@@ -115,6 +124,8 @@ impl LoopParams {
         Checks::new()
             .within("apply_after_nodes", self.apply_after_nodes, 0, 1000)
             .within("node_scans", self.node_scans, 1, 100_000)
+            .within("node_travel_m", self.node_travel_m, 0.0, 1e6)
+            .within("node_keep_travel_m", self.node_keep_travel_m, 0.0, 1e6)
             .within(
                 "node_keep_every",
                 self.node_keep_every,

@@ -127,10 +127,9 @@ fn run(truth: &[Pose2], walls: &[Segment], params: LoopParams) -> (Vec<Pose2>, L
     let mut closer = LoopCloser::new(params.clone(), Config::default().align, 0.5);
     let mut poses = drifted(truth);
     let mut diagnostics = LoopDiagnostics::default();
-    let ns = params.node_scans as usize;
-    let apply = |poses: &mut [Pose2], c: &Correction, upto: usize| {
+    let apply = |closer: &LoopCloser, poses: &mut [Pose2], c: &Correction, upto: usize| {
         for (t, p) in poses.iter_mut().enumerate().take(upto) {
-            let n = t / ns;
+            let n = closer.node_of(t as u32);
             if let Some(d) = n
                 .checked_sub(c.first_node)
                 .and_then(|i| c.new_from_old.get(i))
@@ -143,7 +142,7 @@ fn run(truth: &[Pose2], walls: &[Segment], params: LoopParams) -> (Vec<Pose2>, L
         if let Some(c) = feed(&mut closer, walls, truth, &poses, t, &mut diagnostics) {
             // Poses not yet handed over move with the newest node.
             let newest = *c.new_from_old.last().unwrap();
-            apply(&mut poses, &c, t + 1);
+            apply(&closer, &mut poses, &c, t + 1);
             for p in &mut poses[t + 1..] {
                 *p = newest.compose(p);
             }
@@ -151,7 +150,7 @@ fn run(truth: &[Pose2], walls: &[Segment], params: LoopParams) -> (Vec<Pose2>, L
     }
     if let Some(c) = closer.finish(&mut diagnostics) {
         let n = poses.len();
-        apply(&mut poses, &c, n);
+        apply(&closer, &mut poses, &c, n);
     }
     (poses, closer)
 }
@@ -354,4 +353,40 @@ fn a_failure_of_the_graph_stops_loop_closure_and_is_reported() {
         assert_eq!(c, None);
     }
     assert_eq!(closer.loop_edges(), 0);
+}
+
+/// Sparse scans (a log at one scan per half metre, `--every 10`) make nodes of about the same
+/// ground as dense ones: a node ends after `node_travel_m` of travel, before `node_scans`.
+#[test]
+fn nodes_end_after_their_travel_or_their_scans() {
+    let params = LoopParams {
+        background: false,
+        node_scans: 20,
+        node_travel_m: 2.0,
+        node_keep_every: 5,
+        node_keep_travel_m: 0.0,
+        ..LoopParams::default()
+    };
+    let mut closer = LoopCloser::new(params, AlignParams::default(), 0.5);
+    let mut diagnostics = LoopDiagnostics::default();
+    let points = [Vec2::new(1.0, 0.0)];
+    // 0.5 m per scan for 20 scans, then standing still for 30.
+    let pose = |t: u32| Pose2::new(0.5 * t.min(20) as f64, 0.0, 0.0);
+    for t in 0..50 {
+        closer.add_scan(t, pose(t), &points, &[], &mut diagnostics);
+    }
+    // Travel 2 m is reached at the 5th scan of a node (4 steps of 0.5 m).
+    assert_eq!(
+        (0..4).map(|n| closer.node_start(n)).collect::<Vec<_>>(),
+        [0, 5, 10, 15]
+    );
+    assert_eq!(
+        (closer.node_of(4), closer.node_of(5), closer.node_of(19)),
+        (0, 1, 3)
+    );
+    // From scan 20 the robot stands: nodes end by their scan count again.
+    assert_eq!(closer.node_start(4), 20);
+    assert_eq!(closer.node_start(5), 40);
+    assert_eq!(closer.node_of(39), 4);
+    assert_eq!(closer.node_start(9), u32::MAX);
 }

@@ -572,15 +572,14 @@ impl Mapper {
         let Some(last) = c.new_from_old.last().copied() else {
             return;
         };
-        let ns = self.config.loops.node_scans;
         // Node 0 starts at the map's scan `loop_base` (0 for a new map): segments born before
         // it (an earlier run's) never move.
         let base = self.loop_base;
         let first_new = self.loops.first_new_node();
-        let nodes_in = c.first_node.saturating_sub(first_new) as u64;
-        let first_scan = (base as u64 + nodes_in * ns as u64).min(u32::MAX as u64) as u32;
+        let start = self.loops.node_start(c.first_node.max(first_new));
+        let first_scan = (base as u64 + start as u64).min(u32::MAX as u64) as u32;
         let delta = |t: u32| {
-            let n = first_new + (t.saturating_sub(base) / ns) as usize;
+            let n = self.loops.node_of(t.saturating_sub(base));
             n.checked_sub(c.first_node)
                 .and_then(|i| c.new_from_old.get(i).copied())
                 .unwrap_or(last)
