@@ -100,12 +100,18 @@ impl GlobalSearch {
 
 /// The bounding box of the map's segments; `None` for an empty map.
 pub fn map_bounds(map: &GlobalMap) -> Option<(Vec2, Vec2)> {
-    map.iter()
-        .flat_map(|(_, s)| [s.segment.start, s.segment.end])
-        .fold(None, |acc, p| match acc {
-            None => Some((p, p)),
-            Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
-        })
+    bounds(
+        map.iter()
+            .flat_map(|(_, s)| [s.segment.start, s.segment.end]),
+    )
+}
+
+/// The bounding box `(lo, hi)` of some points (any frame); `None` for none.
+pub(crate) fn bounds(points: impl Iterator<Item = Vec2>) -> Option<(Vec2, Vec2)> {
+    points.fold(None, |acc, p| match acc {
+        None => Some((p, p)),
+        Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
+    })
 }
 
 #[cfg(test)]

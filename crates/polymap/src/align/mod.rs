@@ -31,6 +31,7 @@ mod point_to_segment;
 mod raster;
 mod search;
 mod solver;
+mod strategy;
 mod track;
 
 use serde::{Deserialize, Serialize};
@@ -50,6 +51,9 @@ pub use point_to_segment::{align_points, thin_points};
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
 pub use solver::Constraint;
+pub use strategy::{
+    RECOVER_TRANSLATION_M, TrackConfig, TrackInput, better, track_scan, whole_map_window,
+};
 pub use track::{
     LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict, WindowMatch, search_window,
     should_search, verdict, window_search,

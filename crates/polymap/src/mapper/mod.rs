@@ -10,10 +10,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, GlobalSearch, LoosePoints, Reason, RecentMotion,
-    SearchWindow, Tracking, Verdict, WindowMatch, align_endpoints, align_points, fit_score,
-    fit_score_above, rotation_search, score_sample, search_window, should_search, thin_points,
-    verdict, window_search,
+    AlignResult, GlobalSearch, LoosePoints, Reason, RecentMotion, TrackConfig, TrackInput,
+    Tracking, Verdict, align_points, better, thin_points, track_scan, verdict,
 };
 use crate::config::Config;
 use crate::directions::recent_main_directions;
@@ -614,14 +612,6 @@ impl Mapper {
             .prev_pose
             .map(|p| delta(t.saturating_sub(1)).compose(&p));
     }
-}
-
-/// The bounding box of some points; `None` for none.
-pub(crate) fn bounds(points: impl Iterator<Item = Vec2>) -> Option<(Vec2, Vec2)> {
-    points.fold(None, |acc, p| match acc {
-        None => Some((p, p)),
-        Some((lo, hi)) => Some((lo.min(p), hi.max(p))),
-    })
 }
 
 mod observed;

@@ -2,7 +2,6 @@
 //! search over the saved map, ICP of its peaks, and agreement of successive searches (see
 //! [`Mapper::on_map`]).
 
-use super::tracking::better;
 use super::*;
 use crate::align::points_along;
 

@@ -1,0 +1,501 @@
+//! The alignment strategy of tracking: where ICP starts, which result wins, when the window
+//! search runs and when its pose wins, the recovery after a gap, and the verdict.
+//!
+//! The mapper gathers its state into a [`TrackInput`] (the scan, the map, the motion prior's
+//! guess and anchor, the recent motion, how many scans in a row were lost) and asks
+//! [`track_scan`] for a pose and a verdict. In order:
+//!
+//! 1. **Starts**: the guess; the anchor when they differ (`mapper.also_start_at_anchor`: a
+//!    constant-velocity guess is wrong when a turn starts, stops or reverses); with the
+//!    odometry prior, the constant-velocity guess when it disagrees with odometry
+//!    (`tracking.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn); the best coarse
+//!    rotation ([`rotation_search`]) when the robot turned faster than ICP's basin. With
+//!    `mapper.icp_from_best_start_only`, ICP runs only from the start with the best soft
+//!    inlier score (the first start kept unless beaten by `mapper.start_score_margin`);
+//!    otherwise from each, and the [`better`] fit wins.
+//! 2. **Recovery** after a gap: when under `mapper.recover_below_inlier_share` of the points
+//!    are inliers (not with the odometry prior), a window search over the whole circle within
+//!    [`RECOVER_TRANSLATION_M`] of the anchor, ICP from its best pose and rival; kept only when
+//!    it fits well and doubles the inliers.
+//! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
+//!    [`search_window`], or the whole map every `tracking.relocalize_every_lost` scans lost in
+//!    a row; ICP from its best pose replaces ICP from the starts only with
+//!    `tracking.search_win_margin` more inliers (plus two).
+//! 4. **Verdict** ([`verdict`]), `weak` (`ambiguous`) when the search found a rival.
+
+use super::global::bounds;
+use super::track::{
+    LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict, WindowMatch, search_window,
+    should_search, verdict, window_search,
+};
+use super::{
+    AlignMethod, AlignParams, AlignResult, SearchWindow, SegmentLookup, align_endpoints,
+    align_points, fit_score, fit_score_above, map_bounds, rotation_search, score_sample,
+    thin_points,
+};
+use crate::geometry::{Pose2, Segment, Vec2};
+use crate::map::GlobalMap;
+use crate::motion::{MapperParams, MotionPrior};
+
+/// What the mapper knows when it aligns one scan.
+#[derive(Debug, Clone, Copy)]
+pub struct TrackInput<'a> {
+    /// The scan's valid points, robot frame, metres (thinned here to
+    /// `align.point_spacing_m`).
+    pub points_in_robot: &'a [Vec2],
+    /// The scan's segments, robot frame, metres (for [`AlignMethod::Endpoints`]).
+    pub segments_in_robot: &'a [Segment],
+    /// The map to align to, map frame.
+    pub map: &'a GlobalMap,
+    /// The recent scans' points off the map, map frame (for the window search).
+    pub loose: &'a LoosePoints,
+    /// The motion prior's guess of the pose, map frame: ICP's first start.
+    pub guess: Pose2,
+    /// The pose that directions ICP cannot observe fall back to, map frame.
+    pub anchor: Pose2,
+    /// The constant-velocity prediction (the last pose moved by the last scan-to-scan motion),
+    /// map frame, when there are two poses before; checked against the odometry guess with the
+    /// odometry prior.
+    pub constant_velocity: Option<Pose2>,
+    /// The largest steps and turns of the last scans.
+    pub recent: &'a RecentMotion,
+    /// Scans lost in a row just before this one.
+    pub lost_streak: u32,
+}
+
+/// The parameters [`track_scan`] follows: ICP's, tracking's, and the mapper's start policy
+/// (`also_start_at_anchor`, `icp_from_best_start_only`, `start_score_margin`,
+/// `recover_below_inlier_share`, and whether `motion_prior` is odometry).
+#[derive(Debug, Clone, Copy)]
+pub struct TrackConfig<'a> {
+    /// ICP (section `[align]`).
+    pub align: &'a AlignParams,
+    /// The window search and the verdict (section `[tracking]`).
+    pub tracking: &'a TrackParams,
+    /// The start policy (section `[mapper]`).
+    pub starts: &'a MapperParams,
+}
+
+/// The recovery searches positions within this distance of the anchor (each axis), metres.
+pub const RECOVER_TRANSLATION_M: f64 = 1.0;
+
+/// True when `a` explains the scan better than `b`: more inliers, then a lower residual.
+pub fn better(a: &AlignResult, b: &AlignResult) -> bool {
+    (a.inliers, -a.residual_rms_m) > (b.inliers, -b.residual_rms_m)
+}
+
+/// The [`better`] of some results, the first among equals; `None` for none.
+fn best_of(results: impl IntoIterator<Item = AlignResult>) -> Option<AlignResult> {
+    results
+        .into_iter()
+        .reduce(|best, r| if better(&r, &best) { r } else { best })
+}
+
+/// The pose of one scan and the verdict on it: ICP from the starts, the recovery after a gap,
+/// the window search (see the module); the result is `None` when there is nothing to align
+/// to (an empty map, a scan without points).
+pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResult>, Tracking) {
+    let points = thin_points(input.points_in_robot, config.align.point_spacing_m);
+    let tracker = Tracker {
+        input,
+        config,
+        points: &points,
+    };
+    let (result, found, search_won) = tracker.icp();
+    let first = input.map.is_empty();
+    let mut tracking = verdict(result.as_ref(), points.len(), first, config.tracking);
+    tracking.searched = found.is_some();
+    tracking.search_won = search_won;
+    if tracking.verdict == Verdict::Ok && found.is_some_and(|m| m.ambiguous()) {
+        tracking.verdict = Verdict::Weak;
+        tracking.reason = Reason::Ambiguous;
+    }
+    (result, tracking)
+}
+
+/// A window over the whole map and the whole circle, centred on the map's bounding box with
+/// `guess`'s heading, for re-localizing a robot lost for a while (it may have been carried
+/// anywhere); `None` for an empty map.
+pub fn whole_map_window(map: &GlobalMap, guess: &Pose2) -> Option<SearchWindow> {
+    let (lo, hi) = map_bounds(map)?;
+    let center = (lo + hi) * 0.5;
+    Some(SearchWindow {
+        center: Pose2::new(center.x, center.y, guess.theta_rad),
+        half_xy_m: ((hi - lo) * 0.5).max_element(),
+        half_theta_rad: std::f64::consts::PI,
+    })
+}
+
+/// The start whose soft inlier count over a sample of the points is highest. The first start
+/// is kept unless another beats it by `margin` (soft points): along a corridor the count is
+/// nearly flat, and the first start is "no motion".
+fn best_scoring(
+    starts: &[Pose2],
+    points: &[Vec2],
+    map: &impl SegmentLookup,
+    params: &AlignParams,
+    margin: f64,
+) -> Pose2 {
+    let sample = score_sample(points, params);
+    let first = fit_score(&sample, map, &starts[0], params);
+    let mut best = (first + margin, starts[0]);
+    for p in &starts[1..] {
+        if let Some(s) = fit_score_above(&sample, map, p, params, best.0) {
+            best = (s, *p);
+        }
+    }
+    best.1
+}
+
+/// Map segments near the scan's points placed at `pose` (within `align.initial_gate_m`), for
+/// endpoint ICP; `None` when the scan has no points.
+fn segments_near(input: &TrackInput, pose: &Pose2, params: &AlignParams) -> Option<Vec<Segment>> {
+    let (lo, hi) = bounds(
+        input
+            .points_in_robot
+            .iter()
+            .map(|p| pose.transform_point(*p)),
+    )?;
+    let margin = Vec2::splat(params.initial_gate_m);
+    Some(
+        input
+            .map
+            .query(lo - margin, hi + margin)
+            .iter()
+            .filter_map(|id| input.map.get(*id))
+            .map(|s| s.segment)
+            .collect(),
+    )
+}
+
+/// One scan's alignment in progress.
+struct Tracker<'a> {
+    input: &'a TrackInput<'a>,
+    config: &'a TrackConfig<'a>,
+    /// The scan's points thinned to `align.point_spacing_m`, robot frame.
+    points: &'a [Vec2],
+}
+
+impl Tracker<'_> {
+    /// ICP from the starts, the recovery, the window search; with the search's outcome when
+    /// it ran and whether its pose won.
+    fn icp(&self) -> (Option<AlignResult>, Option<WindowMatch>, bool) {
+        let input = self.input;
+        let Some(result) = self.icp_from_starts() else {
+            return (None, None, false);
+        };
+        let tracking = self.config.tracking;
+        let (guess, anchor, lost_streak) = (input.guess, input.anchor, input.lost_streak);
+        if !should_search(
+            &guess,
+            &anchor,
+            input.recent,
+            Some(&result),
+            self.points.len(),
+            lost_streak,
+            tracking,
+        ) {
+            return (Some(result), None, false);
+        }
+        let every = tracking.relocalize_every_lost;
+        let global = every > 0 && lost_streak > 0 && lost_streak.is_multiple_of(every);
+        let window = match global
+            .then(|| whole_map_window(input.map, &guess))
+            .flatten()
+        {
+            Some(w) => w,
+            None => search_window(&guess, &anchor, lost_streak, tracking),
+        };
+        let loose = input.loose.all();
+        let seed = Some(result.map_from_robot);
+        let Some(found) = window_search(input.map, &loose, self.points, &window, seed, tracking)
+        else {
+            return (Some(result), None, false);
+        };
+        if found.best.map_from_robot == result.map_from_robot {
+            return (Some(result), Some(found), false); // nothing in the window beat ICP's pose
+        }
+        let start = found.best.map_from_robot;
+        let near = match self.config.align.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => {
+                segments_near(input, &start, self.config.align).unwrap_or_default()
+            }
+        };
+        let searched = self.run(&near, start);
+        // The search's pose must fit clearly better: along a corridor, or with odometry's good
+        // guess, a pose that fits a few more points by coincidence is no evidence.
+        let margin = tracking.search_win_margin;
+        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 {
+            (Some(searched), Some(found), true)
+        } else {
+            (Some(result), Some(found), false)
+        }
+    }
+
+    /// One ICP run from `start` with the configured correspondences; `near` are the map
+    /// segments near the scan for endpoint ICP (unused by point-to-segment ICP).
+    fn run(&self, near: &[Segment], start: Pose2) -> AlignResult {
+        let (input, params) = (self.input, self.config.align);
+        let anchor = input.anchor;
+        match params.method {
+            AlignMethod::PointToSegment => {
+                align_points(self.points, input.map, start, anchor, params)
+            }
+            AlignMethod::Endpoints => align_endpoints(
+                input.segments_in_robot,
+                input.map,
+                near,
+                start,
+                anchor,
+                params,
+            ),
+        }
+    }
+
+    /// The constant-velocity prediction, with the odometry prior, when it differs from the
+    /// odometry guess by more than `tracking.odometry_check_m` or `odometry_check_deg`.
+    fn odometry_disagrees(&self) -> Option<Pose2> {
+        if self.config.starts.motion_prior != MotionPrior::Odometry {
+            return None;
+        }
+        let cv = self.input.constant_velocity?;
+        let d = self.input.guess.between(&cv);
+        let t = self.config.tracking;
+        (d.translation().length() > t.odometry_check_m
+            || d.theta_rad.abs().to_degrees() > t.odometry_check_deg)
+            .then_some(cv)
+    }
+
+    /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
+    /// nothing to align to.
+    fn icp_from_starts(&self) -> Option<AlignResult> {
+        let (input, params, policy) = (self.input, self.config.align, self.config.starts);
+        if input.map.is_empty() || input.points_in_robot.is_empty() {
+            return None;
+        }
+        let (guess, anchor) = (input.guess, input.anchor);
+        let near = match params.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => segments_near(input, &guess, params)?,
+        };
+        // Starts: the guess; the anchor when they differ (a constant-velocity guess is wrong
+        // when a turn starts, stops or reverses); the best coarse rotation when the robot turned
+        // faster than ICP's basin. Which one ICP runs from: see `icp_from_best_start_only`.
+        let mut starts = vec![guess];
+        if policy.also_start_at_anchor && anchor != guess {
+            starts.insert(0, anchor);
+        }
+        // Odometry is checked against the scans' own motion: where the odometry increment and
+        // the constant-velocity one disagree (a slip, a bad turn), ICP also runs from the
+        // latter, and the better fit wins.
+        if let Some(cv) = self.odometry_disagrees() {
+            starts.push(cv);
+        }
+        let searched = rotation_search(self.points, input.map, guess, params);
+        if searched != guess {
+            starts.push(searched);
+        }
+        if policy.icp_from_best_start_only && starts.len() > 1 {
+            let margin = policy.start_score_margin;
+            starts = vec![best_scoring(
+                &starts,
+                self.points,
+                input.map,
+                params,
+                margin,
+            )];
+        }
+        let result = best_of(starts.into_iter().map(|s| self.run(&near, s)))?;
+        // With odometry the guess already carries the turn; a poor fit after a gap then
+        // means stale odometry, which the next increment makes good (a recovery would turn
+        // the pose and the increment would turn it again).
+        let share = policy.recover_below_inlier_share;
+        let n = self.points.len();
+        if (result.inliers as f64) >= share * n as f64
+            || policy.motion_prior == MotionPrior::Odometry
+        {
+            return Some(result);
+        }
+        let Some(recovered) = self.recover(&near) else {
+            return Some(result);
+        };
+        // Kept only when it fits well where the guess fitted badly: a turned scan that is
+        // merely less bad is likelier a coincidence of the search.
+        let fits_well = recovered.inliers as f64 >= 2.0 * share * n as f64;
+        Some(if fits_well && recovered.inliers >= 2 * result.inliers {
+            recovered
+        } else {
+            result
+        })
+    }
+
+    /// ICP from the best pose (and its rival, if any) of a window search over the whole circle
+    /// within [`RECOVER_TRANSLATION_M`] of the anchor; the result with the most inliers.
+    /// `None` when there is no map near.
+    fn recover(&self, near: &[Segment]) -> Option<AlignResult> {
+        let window = SearchWindow {
+            center: self.input.anchor,
+            half_xy_m: RECOVER_TRANSLATION_M,
+            half_theta_rad: std::f64::consts::PI,
+        };
+        let loose = self.input.loose.all();
+        let map = self.input.map;
+        let found = window_search(
+            map,
+            &loose,
+            self.points,
+            &window,
+            None,
+            self.config.tracking,
+        )?;
+        best_of(
+            std::iter::once(found.best)
+                .chain(found.rival)
+                .map(|c| self.run(near, c.map_from_robot)),
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::extract::{ExtractParams, extract_segments};
+    use crate::map::MapSegment;
+
+    fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
+        Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
+    }
+
+    /// A 10 × 6 m room with a box and a slanted wall piece: constrains every direction.
+    fn room() -> Vec<Segment> {
+        vec![
+            seg(-5.0, -3.0, 5.0, -3.0),
+            seg(5.0, -3.0, 5.0, 3.0),
+            seg(5.0, 3.0, -5.0, 3.0),
+            seg(-5.0, 3.0, -5.0, -3.0),
+            seg(1.0, 0.5, 2.0, 0.5),
+            seg(2.0, 0.5, 2.0, 1.5),
+            seg(2.0, 1.5, 1.0, 1.5),
+            seg(1.0, 1.5, 1.0, 0.5),
+            seg(-3.0, -3.0, -4.0, -1.5),
+        ]
+    }
+
+    /// A 360-beam, 360° scan (robot frame points) from `map_from_robot`.
+    fn cast(world: &[Segment], map_from_robot: &Pose2) -> Vec<Vec2> {
+        let o = map_from_robot.translation();
+        (0..360)
+            .filter_map(|i| {
+                let a = map_from_robot.theta_rad + f64::from(i).to_radians();
+                let d = Vec2::new(a.cos(), a.sin());
+                let hit = crate::testutil::ray_hit(world, o, d)?;
+                Some(map_from_robot.inverse().transform_point(o + d * hit))
+            })
+            .collect()
+    }
+
+    fn map_of(world: &[Segment]) -> GlobalMap {
+        let mut map = GlobalMap::new(0.5, 1.0);
+        for s in world {
+            map.insert(MapSegment {
+                segment: *s,
+                born_scan: 0,
+            });
+        }
+        map
+    }
+
+    /// Tracks a scan taken at `truth` from `guess` (also the anchor), after `lost_streak` scans
+    /// lost.
+    fn track(
+        method: AlignMethod,
+        map: &GlobalMap,
+        truth: Pose2,
+        guess: Pose2,
+        lost_streak: u32,
+    ) -> TrackResult {
+        let points = cast(&room(), &truth);
+        let segments: Vec<Segment> =
+            extract_segments(&points, 1f64.to_radians(), &ExtractParams::default())
+                .iter()
+                .map(|e| e.segment)
+                .collect();
+        let (loose, recent) = (LoosePoints::default(), RecentMotion::default());
+        let input = TrackInput {
+            points_in_robot: &points,
+            segments_in_robot: &segments,
+            map,
+            loose: &loose,
+            guess,
+            anchor: guess,
+            constant_velocity: None,
+            recent: &recent,
+            lost_streak,
+        };
+        let align = AlignParams {
+            method,
+            ..AlignParams::default()
+        };
+        let config = TrackConfig {
+            align: &align,
+            tracking: &TrackParams::default(),
+            starts: &MapperParams::default(),
+        };
+        track_scan(&input, &config)
+    }
+
+    type TrackResult = (Option<AlignResult>, Tracking);
+
+    /// The pose is within 2 cm and 0.5° of the truth.
+    fn assert_near(truth: &Pose2, (result, tracking): &TrackResult) {
+        let r = result.expect("a pose");
+        let e = truth.between(&r.map_from_robot);
+        assert!(
+            e.translation().length() < 0.02 && e.theta_rad.abs() < 0.5f64.to_radians(),
+            "error {e:?}, {r:?}, {tracking:?}"
+        );
+    }
+
+    #[test]
+    fn a_near_guess_is_refined_by_icp_alone() {
+        let map = map_of(&room());
+        let truth = Pose2::new(-1.0, -0.5, 0.3);
+        for method in [AlignMethod::PointToSegment, AlignMethod::Endpoints] {
+            let guess = truth.compose(&Pose2::new(0.05, -0.05, 0.02));
+            let tracked = track(method, &map, truth, guess, 0);
+            assert_near(&truth, &tracked);
+        }
+        // The verdict and the search's trigger count endpoint ICP's inliers (endpoints)
+        // against the scan's points, so only point-to-segment ICP is judged by them here.
+        let guess = truth.compose(&Pose2::new(0.05, -0.05, 0.02));
+        let tracked = track(AlignMethod::PointToSegment, &map, truth, guess, 0);
+        assert_eq!(tracked.1.verdict, Verdict::Ok, "{:?}", tracked.1);
+        assert!(!tracked.1.searched);
+    }
+
+    /// Beyond the rotation search's reach, the recovery finds the pose; after a lost scan,
+    /// the window search does.
+    #[test]
+    fn a_far_guess_is_recovered_or_searched() {
+        let map = map_of(&room());
+        let truth = Pose2::new(-1.0, -0.5, 0.3);
+        let guess = truth.compose(&Pose2::new(0.5, 0.3, 60f64.to_radians()));
+        let recovered = track(AlignMethod::PointToSegment, &map, truth, guess, 0);
+        assert_near(&truth, &recovered);
+        assert_eq!(recovered.1.verdict, Verdict::Ok, "{:?}", recovered.1);
+        assert!(!recovered.1.searched);
+        let searched = track(AlignMethod::PointToSegment, &map, truth, guess, 1);
+        assert_near(&truth, &searched);
+        assert!(searched.1.searched);
+    }
+
+    #[test]
+    fn an_empty_map_starts_the_map() {
+        let truth = Pose2::new(-1.0, -0.5, 0.3);
+        let (result, tracking) = track(AlignMethod::PointToSegment, &map_of(&[]), truth, truth, 0);
+        assert!(result.is_none());
+        assert_eq!(tracking.reason, Reason::Start);
+        assert_eq!(tracking.verdict, Verdict::Ok);
+    }
+}
