@@ -177,9 +177,9 @@ pub struct MapArgs {
     /// A named preset: `default` or `paper`.
     #[arg(long, default_value = "default")]
     pub preset: String,
-    /// Start each ICP from the log's odometry increment (map in odometry's frame); where it
-    /// disagrees with the scans' own motion, ICP also runs from that and the better fit wins.
-    /// ROS: odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp.
+    /// Start each ICP from the log's odometry increment (map in odometry's frame); also runs ICP
+    /// from every start and keeps the most inliers, which measured best with odometry. ROS:
+    /// odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp.
     #[arg(long)]
     pub odometry: bool,
     /// Skip bad input — malformed log lines, undecodable messages, corrupt chunks — (counted

@@ -32,8 +32,7 @@ pub struct MapperParams {
     /// constant-velocity prior (0: assume no motion there; 1: assume the same motion again).
     pub weak_direction_velocity: f64,
     /// With several ICP starts, score them by the soft inlier count of a sample of points and
-    /// run ICP from the best one only (faster); otherwise (the default) run ICP from each and
-    /// keep the one with the most inliers, then the lowest residual.
+    /// run ICP from the best one only (faster); otherwise run ICP from each and keep the best.
     pub icp_from_best_start_only: bool,
     /// Soft inlier points by which another start must beat the first (the anchor, "no
     /// motion", when it is a start) to be chosen.
@@ -52,7 +51,7 @@ impl Default for MapperParams {
             motion_prior: MotionPrior::ConstantVelocity,
             also_start_at_anchor: true,
             weak_direction_velocity: 0.0,
-            icp_from_best_start_only: false,
+            icp_from_best_start_only: true,
             start_score_margin: 1.0,
             recover_below_inlier_share: 0.15,
         }

@@ -36,6 +36,7 @@ pub fn config(odometry: bool) -> Config {
     let mut config = Config::default();
     if odometry {
         config.mapper.motion_prior = MotionPrior::Odometry;
+        config.mapper.icp_from_best_start_only = false;
     }
     config
 }

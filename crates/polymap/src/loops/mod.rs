@@ -7,7 +7,7 @@
 //!
 //! - A **node** is a run of consecutive scans, posed at its first: it ends after `node_scans`
 //!   scans or once the robot has travelled `node_travel_m` since its first scan, whichever
-//!   comes first (so that sparse scans do not make nodes span more ground). A node keeps a small
+//!   comes first (so that sparse scans do not make nodes span more ground; off by default). A node keeps a small
 //!   submap in its own frame (the points and segments of its first scan and then of every
 //!   `node_keep_every`-th scan, or sooner after `node_keep_travel_m` of travel; points thinned
 //!   to `node_point_spacing_m`).

@@ -21,12 +21,13 @@ pub struct LoopParams {
     pub node_scans: u32,
     /// A node also ends once the robot has travelled this far (path length, metres) since its
     /// first scan, so that a node covers about the same ground however far apart the scans
-    /// are (a sparse log, `--every K`); 0 turns it off.
+    /// are (a sparse log, `--every K`); 0 (the default) turns it off. Measured in
+    /// `docs/ARCHITECTURE.md`: it helps every 3rd to 5th scan and makes dense runs fragile.
     pub node_travel_m: f64,
     /// Every this many scans of a node feed its submap...
     pub node_keep_every: u32,
     /// ...or sooner, once the robot has travelled this far (path length, metres) since the
-    /// last scan that fed it; 0 turns it off.
+    /// last scan that fed it; 0 (the default) turns it off.
     pub node_keep_travel_m: f64,
     /// The submap's points are thinned to this spacing, metres.
     pub node_point_spacing_m: f64,
@@ -87,9 +88,9 @@ impl Default for LoopParams {
             background: true,
             apply_after_nodes: 5,
             node_scans: 20,
-            node_travel_m: 2.0,
+            node_travel_m: 0.0,
             node_keep_every: 5,
-            node_keep_travel_m: 0.4,
+            node_keep_travel_m: 0.0,
             node_point_spacing_m: 0.1,
             min_node_gap: 15,
             skip_after_closure: 2,
