@@ -2,6 +2,7 @@
 //! simulator, which depends on this crate; they share its ray–segment test instead).
 
 use crate::geometry::{Pose2, Segment, Vec2};
+use crate::map::{GlobalMap, MapSegment};
 use crate::scan::{RangeScan, Stamp};
 
 /// The nearest hit of a ray with the walls, metres (the simulator's ray–segment test,
@@ -39,4 +40,50 @@ pub(crate) fn scan_from(walls: &[Segment], map_from_robot: &Pose2, stamp_s: f64)
         robot_from_laser: Pose2::IDENTITY,
         odom_from_robot: None,
     }
+}
+
+/// A segment from `(ax, ay)` to `(bx, by)`, metres.
+pub(crate) fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
+    Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
+}
+
+/// A 10 × 6 m room with a box and a slanted wall piece: constrains every direction.
+pub(crate) fn room() -> Vec<Segment> {
+    vec![
+        seg(-5.0, -3.0, 5.0, -3.0),
+        seg(5.0, -3.0, 5.0, 3.0),
+        seg(5.0, 3.0, -5.0, 3.0),
+        seg(-5.0, 3.0, -5.0, -3.0),
+        seg(1.0, 0.5, 2.0, 0.5),
+        seg(2.0, 0.5, 2.0, 1.5),
+        seg(2.0, 1.5, 1.0, 1.5),
+        seg(1.0, 1.5, 1.0, 0.5),
+        seg(-3.0, -3.0, -4.0, -1.5),
+    ]
+}
+
+/// A 360-beam, 360° scan without noise or range limit from `map_from_robot`, as points in the
+/// robot frame.
+pub(crate) fn cast_360(world: &[Segment], map_from_robot: &Pose2) -> Vec<Vec2> {
+    let o = map_from_robot.translation();
+    (0..360)
+        .filter_map(|i| {
+            let a = map_from_robot.theta_rad + f64::from(i).to_radians();
+            let d = Vec2::new(a.cos(), a.sin());
+            let hit = ray_hit(world, o, d)?;
+            Some(map_from_robot.inverse().transform_point(o + d * hit))
+        })
+        .collect()
+}
+
+/// A global map of `segments` (born at scan 0) with `cell_m` grid cells.
+pub(crate) fn map_of(segments: &[Segment], cell_m: f64) -> GlobalMap {
+    let mut map = GlobalMap::new(cell_m, 1.0);
+    for s in segments {
+        map.insert(MapSegment {
+            segment: *s,
+            born_scan: 0,
+        });
+    }
+    map
 }

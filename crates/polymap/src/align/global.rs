@@ -118,7 +118,7 @@ pub(crate) fn bounds(points: impl Iterator<Item = Vec2>) -> Option<(Vec2, Vec2)>
 mod tests {
     use super::*;
     use crate::geometry::Segment;
-    use crate::map::MapSegment;
+    use crate::testutil::map_of;
 
     /// An L-shaped room with a notch: no symmetry, so one pose explains a scan.
     fn room() -> Vec<Segment> {
@@ -149,17 +149,6 @@ mod tests {
         GlobalSearch::new(map, &params)
             .expect("a map with segments")
             .peaks(points, hint, max, 8.0, &params)
-    }
-
-    fn map_of(segments: &[Segment]) -> GlobalMap {
-        let mut map = GlobalMap::new(1.0, 1.0);
-        for s in segments {
-            map.insert(MapSegment {
-                segment: *s,
-                born_scan: 0,
-            });
-        }
-        map
     }
 
     /// Points of the walls seen from `pose` (robot frame): every wall point within range that
@@ -195,7 +184,7 @@ mod tests {
     #[test]
     fn finds_a_scan_anywhere_in_the_map_at_any_heading() {
         let walls = room();
-        let map = map_of(&walls);
+        let map = map_of(&walls, 1.0);
         for truth in [
             Pose2::new(2.0, 2.0, 0.3),
             Pose2::new(10.5, 3.0, -2.5),
@@ -215,7 +204,7 @@ mod tests {
     #[test]
     fn a_hint_limits_the_search_and_an_empty_map_gives_nothing() {
         let walls = room();
-        let map = map_of(&walls);
+        let map = map_of(&walls, 1.0);
         let params = TrackParams::default();
         let truth = Pose2::new(2.0, 2.0, 0.3);
         let points = scan_from(&walls, truth);

@@ -361,50 +361,7 @@ impl Tracker<'_> {
 mod tests {
     use super::*;
     use crate::extract::{ExtractParams, extract_segments};
-    use crate::map::MapSegment;
-
-    fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
-        Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
-    }
-
-    /// A 10 × 6 m room with a box and a slanted wall piece: constrains every direction.
-    fn room() -> Vec<Segment> {
-        vec![
-            seg(-5.0, -3.0, 5.0, -3.0),
-            seg(5.0, -3.0, 5.0, 3.0),
-            seg(5.0, 3.0, -5.0, 3.0),
-            seg(-5.0, 3.0, -5.0, -3.0),
-            seg(1.0, 0.5, 2.0, 0.5),
-            seg(2.0, 0.5, 2.0, 1.5),
-            seg(2.0, 1.5, 1.0, 1.5),
-            seg(1.0, 1.5, 1.0, 0.5),
-            seg(-3.0, -3.0, -4.0, -1.5),
-        ]
-    }
-
-    /// A 360-beam, 360° scan (robot frame points) from `map_from_robot`.
-    fn cast(world: &[Segment], map_from_robot: &Pose2) -> Vec<Vec2> {
-        let o = map_from_robot.translation();
-        (0..360)
-            .filter_map(|i| {
-                let a = map_from_robot.theta_rad + f64::from(i).to_radians();
-                let d = Vec2::new(a.cos(), a.sin());
-                let hit = crate::testutil::ray_hit(world, o, d)?;
-                Some(map_from_robot.inverse().transform_point(o + d * hit))
-            })
-            .collect()
-    }
-
-    fn map_of(world: &[Segment]) -> GlobalMap {
-        let mut map = GlobalMap::new(0.5, 1.0);
-        for s in world {
-            map.insert(MapSegment {
-                segment: *s,
-                born_scan: 0,
-            });
-        }
-        map
-    }
+    use crate::testutil::{cast_360 as cast, map_of, room};
 
     /// Tracks a scan taken at `truth` from `guess` (also the anchor), after `lost_streak` scans
     /// lost.
@@ -459,7 +416,7 @@ mod tests {
 
     #[test]
     fn a_near_guess_is_refined_by_icp_alone() {
-        let map = map_of(&room());
+        let map = map_of(&room(), 0.5);
         let truth = Pose2::new(-1.0, -0.5, 0.3);
         for method in [AlignMethod::PointToSegment, AlignMethod::Endpoints] {
             let guess = truth.compose(&Pose2::new(0.05, -0.05, 0.02));
@@ -478,7 +435,7 @@ mod tests {
     /// the window search does.
     #[test]
     fn a_far_guess_is_recovered_or_searched() {
-        let map = map_of(&room());
+        let map = map_of(&room(), 0.5);
         let truth = Pose2::new(-1.0, -0.5, 0.3);
         let guess = truth.compose(&Pose2::new(0.5, 0.3, 60f64.to_radians()));
         let recovered = track(AlignMethod::PointToSegment, &map, truth, guess, 0);
@@ -493,7 +450,13 @@ mod tests {
     #[test]
     fn an_empty_map_starts_the_map() {
         let truth = Pose2::new(-1.0, -0.5, 0.3);
-        let (result, tracking) = track(AlignMethod::PointToSegment, &map_of(&[]), truth, truth, 0);
+        let (result, tracking) = track(
+            AlignMethod::PointToSegment,
+            &map_of(&[], 0.5),
+            truth,
+            truth,
+            0,
+        );
         assert!(result.is_none());
         assert_eq!(tracking.reason, Reason::Start);
         assert_eq!(tracking.verdict, Verdict::Ok);

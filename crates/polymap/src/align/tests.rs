@@ -2,39 +2,7 @@ use super::*;
 use crate::extract::{ExtractParams, extract_segments};
 use crate::geometry::{Segment, Vec2};
 use crate::segment_index::SegmentIndex;
-
-fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
-    Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
-}
-
-/// A 10 × 6 m room with a box and a slanted wall piece: constrains every direction.
-fn room() -> Vec<Segment> {
-    vec![
-        seg(-5.0, -3.0, 5.0, -3.0),
-        seg(5.0, -3.0, 5.0, 3.0),
-        seg(5.0, 3.0, -5.0, 3.0),
-        seg(-5.0, 3.0, -5.0, -3.0),
-        seg(1.0, 0.5, 2.0, 0.5),
-        seg(2.0, 0.5, 2.0, 1.5),
-        seg(2.0, 1.5, 1.0, 1.5),
-        seg(1.0, 1.5, 1.0, 0.5),
-        seg(-3.0, -3.0, -4.0, -1.5),
-    ]
-}
-
-/// Ray-cast a 360-beam, 360° scan (robot frame points) from `map_from_robot`.
-fn cast(world: &[Segment], map_from_robot: &Pose2) -> Vec<Vec2> {
-    let o = map_from_robot.translation();
-    let mut pts = Vec::new();
-    for i in 0..360 {
-        let a = map_from_robot.theta_rad + (i as f64).to_radians();
-        let d = Vec2::new(a.cos(), a.sin());
-        if let Some(hit) = crate::testutil::ray_hit(world, o, d) {
-            pts.push(map_from_robot.inverse().transform_point(o + d * hit));
-        }
-    }
-    pts
-}
+use crate::testutil::{cast_360 as cast, room, seg};
 
 fn assert_recovers(method: AlignMethod, offset: Pose2) {
     let world = room();

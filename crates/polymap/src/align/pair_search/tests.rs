@@ -1,5 +1,5 @@
 use super::*;
-use crate::map::MapSegment;
+use crate::testutil::map_of;
 
 fn seg(x0: f64, y0: f64, x1: f64, y1: f64) -> Segment {
     Segment::new(Vec2::new(x0, y0), Vec2::new(x1, y1))
@@ -38,17 +38,6 @@ fn office() -> Vec<Segment> {
     s
 }
 
-fn map_of(segments: &[Segment]) -> GlobalMap {
-    let mut map = GlobalMap::new(0.5, 1.0);
-    for s in segments {
-        map.insert(MapSegment {
-            segment: *s,
-            born_scan: 0,
-        });
-    }
-    map
-}
-
 fn run(fixed: &[Segment], moving: &[Segment]) -> Option<GlobalMatch> {
     run_with_paths(fixed, &[], moving, &[])
 }
@@ -66,7 +55,7 @@ fn run_with_paths(
         path: moving_path,
     };
     global_match(
-        &map_of(fixed),
+        &map_of(fixed, 0.5),
         fixed_path,
         &side,
         &GlobalParams::default(),
@@ -220,7 +209,7 @@ fn paths_agree_at_the_true_pose_and_conflict_elsewhere() {
     assert_eq!(m.best.conflicts, 0.0);
     assert_eq!(m.verdict(&GlobalParams::default()), MatchVerdict::Accepted);
     // A path a metre off, along the corridor's wall, conflicts; so does one through a wall.
-    let (map, params) = (map_of(&a), GlobalParams::default());
+    let (map, params) = (map_of(&a, 0.5), GlobalParams::default());
     let path = office_path();
     let on_wall: Vec<Vec2> = path.iter().map(|p| *p + Vec2::new(0.0, 1.0)).collect();
     let share = path_conflicts(&on_wall, &map, &Pose2::IDENTITY, &params).unwrap();
@@ -234,7 +223,7 @@ fn paths_agree_at_the_true_pose_and_conflict_elsewhere() {
 
 #[test]
 fn a_path_through_a_wall_conflicts_where_it_crosses() {
-    let map = map_of(&[seg(0.0, -2.0, 0.0, 2.0)]);
+    let map = map_of(&[seg(0.0, -2.0, 0.0, 2.0)], 0.5);
     let params = GlobalParams::default();
     let path: Vec<Vec2> = (0..8)
         .map(|i| Vec2::new(-1.75 + 0.5 * i as f64, 0.0))
@@ -296,8 +285,14 @@ fn a_scan_is_placed_in_the_map_without_a_guess() {
         path: &[Vec2::ZERO],
     };
     let params = GlobalParams::default();
-    let m = global_match(&map_of(&a), &[], &side, &params, &AlignParams::default())
-        .expect("corners in the room");
+    let m = global_match(
+        &map_of(&a, 0.5),
+        &[],
+        &side,
+        &params,
+        &AlignParams::default(),
+    )
+    .expect("corners in the room");
     let (dm, ddeg) = error(&map_from_robot, &m.fixed_from_moving);
     assert!(dm < 1e-3 && ddeg < 0.01, "{dm} m, {ddeg}°: {m:?}");
     assert_eq!(m.best.conflicts, 0.0);
