@@ -68,6 +68,9 @@ pub struct CorrelativeMatcher {
 struct Rotation {
     theta_rad: f64,
     cells: Vec<(i64, i64)>,
+    /// The smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)` (`None` for no
+    /// cells): a block whose every cell lands inside the raster is summed without checks.
+    extent: Option<(i64, i64, i64, i64)>,
 }
 
 /// A block of translations: offsets `[ix, ix + 2^level) × [iy, iy + 2^level)` cells at one
@@ -266,11 +269,19 @@ impl CorrelativeMatcher {
             .map(|k| {
                 let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
                 let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
-                let cells = points
+                let cells: Vec<(i64, i64)> = points
                     .iter()
                     .map(|p| self.raster.cell_of(pose.transform_point(*p)))
                     .collect();
-                Rotation { theta_rad, cells }
+                let extent = cells.iter().fold(None, |e, &(x, y)| match e {
+                    None => Some((x, y, x, y)),
+                    Some((a, b, c, d)) => Some((a.min(x), b.min(y), c.max(x), d.max(y))),
+                });
+                Rotation {
+                    theta_rad,
+                    cells,
+                    extent,
+                }
             })
             .collect()
     }
@@ -284,11 +295,26 @@ impl CorrelativeMatcher {
     /// The block at `(ix, iy)` of `level` for rotation `r`, with its bound.
     fn block(&self, rotations: &[Rotation], r: usize, ix: i64, iy: i64, level: u32) -> Block {
         let values = &self.levels[level as usize];
+        let rotation = &rotations[r];
+        let (ox, oy) = (ix + self.pad, iy + self.pad);
+        let inside = rotation.extent.is_some_and(|(x0, y0, x1, y1)| {
+            x0 + ox >= 0
+                && y0 + oy >= 0
+                && x1 + ox < self.padded_width
+                && y1 + oy < self.padded_height
+        });
+        // The same sum in the same order either way (f32 results are bit-identical).
         let mut bound = 0f32;
-        for &(cx, cy) in &rotations[r].cells {
-            let (x, y) = (cx + ix + self.pad, cy + iy + self.pad);
-            if x >= 0 && y >= 0 && x < self.padded_width && y < self.padded_height {
-                bound += values[(y * self.padded_width + x) as usize];
+        if inside {
+            for &(cx, cy) in &rotation.cells {
+                bound += values[((cy + oy) * self.padded_width + cx + ox) as usize];
+            }
+        } else {
+            for &(cx, cy) in &rotation.cells {
+                let (x, y) = (cx + ox, cy + oy);
+                if x >= 0 && y >= 0 && x < self.padded_width && y < self.padded_height {
+                    bound += values[(y * self.padded_width + x) as usize];
+                }
             }
         }
         Block {
@@ -329,18 +355,24 @@ impl Search<'_> {
             return;
         }
         let size = 1i64 << (b.level - 1);
-        let mut children: Vec<Block> = [(0, 0), (size, 0), (0, size), (size, size)]
-            .into_iter()
-            .map(|(dx, dy)| (b.ix + dx, b.iy + dy))
-            .filter(|&(ix, iy)| ix <= self.reach && iy <= self.reach)
-            .map(|(ix, iy)| {
-                self.matcher
-                    .block(self.rotations, b.rotation, ix, iy, b.level - 1)
-            })
-            .collect();
-        children.sort_by(|a, b| b.bound.total_cmp(&a.bound));
-        for c in children {
-            self.descend(c, floor, best);
+        let mut children = [None; 4];
+        let mut n = 0;
+        for (dx, dy) in [(0, 0), (size, 0), (0, size), (size, size)] {
+            let (ix, iy) = (b.ix + dx, b.iy + dy);
+            if ix <= self.reach && iy <= self.reach {
+                children[n] =
+                    Some(
+                        self.matcher
+                            .block(self.rotations, b.rotation, ix, iy, b.level - 1),
+                    );
+                n += 1;
+            }
+        }
+        let children = &mut children[..n];
+        let bound = |c: &Option<Block>| c.map_or(f32::NEG_INFINITY, |c| c.bound);
+        children.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
+        for c in children.iter().flatten() {
+            self.descend(*c, floor, best);
         }
     }
 
