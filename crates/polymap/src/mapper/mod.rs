@@ -182,8 +182,14 @@ pub struct Mapper {
 pub struct TrackingSummary {
     /// Scans tracked confidently.
     pub ok: u32,
-    /// Scans with a direction taken from the motion prior.
+    /// Scans with a direction taken from the motion prior, a direction observed by few
+    /// points, a poor fit or a rival pose.
     pub weak: u32,
+    /// Of the `weak` scans, those weak only because a direction was observed by few points
+    /// (`weakly_observed`): common along any corridor, also where tracking is accurate, so the
+    /// run's warning does not count them.
+    #[serde(default)]
+    pub weakly_observed: u32,
     /// Scans with no confident match (they did not enter the map).
     pub lost: u32,
     /// Inclusive ranges `[first, last]` of consecutive lost scans (scan indices, 0-based).
@@ -201,10 +207,13 @@ impl TrackingSummary {
         }
     }
 
-    fn count(&mut self, t: u32, verdict: Verdict) {
+    fn count(&mut self, t: u32, verdict: Verdict, reason: Reason) {
         match verdict {
             Verdict::Ok => self.ok += 1,
-            Verdict::Weak => self.weak += 1,
+            Verdict::Weak => {
+                self.weak += 1;
+                self.weakly_observed += u32::from(reason == Reason::WeaklyObserved);
+            }
             Verdict::Lost => {
                 self.lost += 1;
                 match self.lost_ranges.last_mut() {
@@ -476,7 +485,7 @@ impl Mapper {
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
         }
-        self.verdicts.count(i, tracking.verdict);
+        self.verdicts.count(i, tracking.verdict, tracking.reason);
         self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
         if !lost {
             let spacing = self.config.tracking.loose_point_spacing_m;

@@ -239,3 +239,19 @@ fn a_kidnapped_robot_is_lost_then_found_again() {
         "lost scans entered the map"
     );
 }
+
+#[test]
+fn weakly_observed_scans_are_counted_apart_within_the_weak() {
+    let mut t = TrackingSummary::default();
+    t.count(0, Verdict::Ok, Reason::Fit);
+    t.count(1, Verdict::Weak, Reason::WeaklyObserved);
+    t.count(2, Verdict::Weak, Reason::Degenerate);
+    t.count(3, Verdict::Lost, Reason::Contradicted);
+    t.count(4, Verdict::Lost, Reason::TooFewInliers);
+    assert_eq!((t.ok, t.weak, t.weakly_observed, t.lost), (1, 2, 1, 2));
+    assert_eq!(t.lost_ranges, vec![[3, 4]]);
+    // summary.json files written before the field read as none.
+    let old: TrackingSummary =
+        serde_json::from_str(r#"{"ok": 3, "weak": 1, "lost": 0, "lost_ranges": []}"#).unwrap();
+    assert_eq!(old.weakly_observed, 0);
+}
