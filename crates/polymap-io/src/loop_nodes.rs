@@ -34,7 +34,9 @@ use polymap::geometry::{Pose2, Segment, Vec2};
 use polymap::loops::SavedNode;
 use serde::{Deserialize, Serialize};
 
-use crate::map_json::{MapJsonError, UNITS_METRES};
+use crate::map_json::{
+    MapJsonError, UNITS_METRES, check_version, io_error, json_error, read_text, write_file,
+};
 
 /// The file's name in a run folder.
 pub const LOOP_NODES_FILE: &str = "loop_nodes.json";
@@ -62,14 +64,7 @@ pub fn write_loop_nodes(
     nodes: &[SavedNode],
 ) -> Result<(), MapJsonError> {
     let path = path.as_ref();
-    crate::atomic::write_atomic_with(
-        path,
-        |out| write_loop_nodes_to(out, path, frame, nodes),
-        |source| MapJsonError::Io {
-            path: path.to_path_buf(),
-            source,
-        },
-    )
+    write_file(path, |out| write_loop_nodes_to(out, path, frame, nodes))
 }
 
 /// Writes `nodes` to `out`, one node per line; `path` names it in errors.
@@ -80,10 +75,7 @@ pub fn write_loop_nodes_to(
     nodes: &[SavedNode],
 ) -> Result<(), MapJsonError> {
     let path = path.as_ref();
-    let json = |e: serde_json::Error| MapJsonError::Invalid {
-        path: path.to_path_buf(),
-        problem: e.to_string(),
-    };
+    let json = |e: serde_json::Error| json_error(path, e);
     let mut text = format!(
         "{{\"version\": {VERSION}, \"units\": {}, \"frame\": {},\n\"nodes\": [",
         serde_json::to_string(UNITS_METRES).map_err(json)?,
@@ -111,26 +103,19 @@ pub fn write_loop_nodes_to(
         text.push('\n');
     }
     text.push_str("]}\n");
-    out.write_all(text.as_bytes())
-        .map_err(|source| MapJsonError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+    out.write_all(text.as_bytes()).map_err(io_error(path))
 }
 
 /// Reads a `loop_nodes.json` file.
 pub fn read_loop_nodes(path: impl AsRef<Path>) -> Result<Vec<SavedNode>, MapJsonError> {
     let path = path.as_ref();
-    let file = std::fs::File::open(path).map_err(|source| MapJsonError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let file = std::fs::File::open(path).map_err(io_error(path))?;
     read_loop_nodes_from(std::io::BufReader::new(file), path)
 }
 
 /// Reads a `loop_nodes.json` document from `input`; `path` names it in errors.
 pub fn read_loop_nodes_from(
-    mut input: impl Read,
+    input: impl Read,
     path: impl AsRef<Path>,
 ) -> Result<Vec<SavedNode>, MapJsonError> {
     let path = path.as_ref();
@@ -138,31 +123,9 @@ pub fn read_loop_nodes_from(
         path: path.to_path_buf(),
         problem,
     };
-    let mut text = String::new();
-    input
-        .read_to_string(&mut text)
-        .map_err(|source| MapJsonError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    #[derive(Deserialize)]
-    struct Version {
-        version: u32,
-    }
-    if let Ok(v) = serde_json::from_str::<Version>(&text)
-        && (v.version == 0 || v.version > VERSION)
-    {
-        return Err(invalid(format!(
-            "loop_nodes.json version {} is not one this polymap reads (versions 1 to {VERSION})",
-            v.version
-        )));
-    }
-    let doc: Document = serde_json::from_str(&text).map_err(|source| MapJsonError::Json {
-        path: path.to_path_buf(),
-        line: source.line(),
-        column: source.column(),
-        source,
-    })?;
+    let text = read_text(input, path)?;
+    check_version(&text, path, "loop_nodes.json", VERSION)?;
+    let doc: Document = serde_json::from_str(&text).map_err(|e| json_error(path, e))?;
     if doc.units != UNITS_METRES {
         return Err(invalid(format!(
             "units must be \"m\", found {:?}",

@@ -189,7 +189,9 @@ impl MapJson {
 
     /// Checks the contract: units `"m"`, finite coordinates, polyline indices in range.
     pub fn validate(&self) -> Result<(), String> {
-        check_version(self.version)?;
+        if let Some(problem) = version_problem("map.json", self.version, VERSION) {
+            return Err(problem);
+        }
         if let Some(scans) = self.scans
             && let Some(s) = self.segments.iter().find(|s| s.born_scan >= scans)
         {
@@ -248,14 +250,31 @@ impl SegmentJson {
 /// [`MapJson::validate`].
 pub fn write_map_json(path: impl AsRef<Path>, map: &MapJson) -> Result<(), MapJsonError> {
     let path = path.as_ref();
-    crate::atomic::write_atomic_with(
-        path,
-        |out| write_map_json_to(out, path, map),
-        |source| MapJsonError::Io {
-            path: path.to_path_buf(),
-            source,
-        },
-    )
+    write_file(path, |out| write_map_json_to(out, path, map))
+}
+
+/// Writes a file of this crate's JSON formats atomically (see [`crate::atomic`]) with `fill`;
+/// I/O errors name `path`.
+pub(crate) fn write_file(
+    path: &Path,
+    fill: impl FnOnce(&mut dyn Write) -> Result<(), MapJsonError>,
+) -> Result<(), MapJsonError> {
+    crate::atomic::write_atomic_with(path, fill, io_error(path))
+}
+
+/// Maps an I/O error on `path` to [`MapJsonError::Io`].
+pub(crate) fn io_error(path: &Path) -> impl Fn(std::io::Error) -> MapJsonError + '_ {
+    move |source| MapJsonError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// The whole of `input` as text; I/O errors name `path`.
+pub(crate) fn read_text(mut input: impl Read, path: &Path) -> Result<String, MapJsonError> {
+    let mut text = String::new();
+    input.read_to_string(&mut text).map_err(io_error(path))?;
+    Ok(text)
 }
 
 /// Writes `map` to `out`, one segment or polyline per line; `path` names it in errors.
@@ -270,11 +289,7 @@ pub fn write_map_json_to(
         problem,
     })?;
     let text = to_json_text(map).map_err(|source| json_error(path, source))?;
-    out.write_all(text.as_bytes())
-        .map_err(|source| MapJsonError::Io {
-            path: path.to_path_buf(),
-            source,
-        })
+    out.write_all(text.as_bytes()).map_err(io_error(path))
 }
 
 /// The document as text, one array element per line.
@@ -310,10 +325,7 @@ fn push_lines<T: Serialize>(text: &mut String, items: &[T]) -> Result<(), serde_
 /// Reads and validates a `map.json` file.
 pub fn read_map_json(path: impl AsRef<Path>) -> Result<MapJson, MapJsonError> {
     let path = path.as_ref();
-    let file = File::open(path).map_err(|source| MapJsonError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let file = File::open(path).map_err(io_error(path))?;
     read_map_json_from(BufReader::new(file), path)
 }
 
@@ -323,26 +335,8 @@ pub fn read_map_json_from(
     path: impl AsRef<Path>,
 ) -> Result<MapJson, MapJsonError> {
     let path = path.as_ref();
-    let mut text = String::new();
-    let mut input = input;
-    input
-        .read_to_string(&mut text)
-        .map_err(|source| MapJsonError::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-    // The version first: a newer file may differ in shape, and its version is the message.
-    #[derive(Deserialize)]
-    struct Version {
-        #[serde(default = "version_1")]
-        version: u32,
-    }
-    if let Ok(v) = serde_json::from_str::<Version>(&text) {
-        check_version(v.version).map_err(|problem| MapJsonError::Invalid {
-            path: path.to_path_buf(),
-            problem,
-        })?;
-    }
+    let text = read_text(input, path)?;
+    check_version(&text, path, "map.json", VERSION)?;
     let map: MapJson = serde_json::from_str(&text).map_err(|e| json_error(path, e))?;
     map.validate().map_err(|problem| MapJsonError::Invalid {
         path: path.to_path_buf(),
@@ -351,18 +345,47 @@ pub fn read_map_json_from(
     Ok(map)
 }
 
-/// `Err` with a message naming `version` unless this crate reads it.
-fn check_version(version: u32) -> Result<(), String> {
-    if version == 0 || version > VERSION {
-        return Err(format!(
-            "map.json version {version} is not one this polymap reads (versions 1 to {VERSION}); \
+/// Why a `format` document (e.g. `map.json`) of `version` is not read, when it is not: only
+/// versions 1 to `newest` are.
+fn version_problem(format: &str, version: u32, newest: u32) -> Option<String> {
+    (version == 0 || version > newest).then(|| {
+        format!(
+            "{format} version {version} is not one this polymap reads (versions 1 to {newest}); \
              it was written by a newer or a different program"
-        ));
-    }
-    Ok(())
+        )
+    })
 }
 
-fn json_error(path: &Path, source: serde_json::Error) -> MapJsonError {
+/// Checks the version of a `format` document (`text`, from `file`) before its shape: a newer
+/// file may differ in shape, and its version is then the message. A document without a
+/// version is version 1; one that is not JSON at all is left to the full parse, which names
+/// the line.
+pub(crate) fn check_version(
+    text: &str,
+    file: &Path,
+    format: &str,
+    newest: u32,
+) -> Result<(), MapJsonError> {
+    #[derive(Deserialize)]
+    struct Version {
+        #[serde(default = "version_1")]
+        version: u32,
+    }
+    let Ok(Version { version }) = serde_json::from_str::<Version>(text) else {
+        return Ok(());
+    };
+    match version_problem(format, version, newest) {
+        Some(problem) => Err(MapJsonError::Invalid {
+            path: file.to_path_buf(),
+            problem,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Maps a JSON error on `path` to [`MapJsonError::Json`] (with its line and column), or to
+/// [`MapJsonError::Io`] when reading failed.
+pub(crate) fn json_error(path: &Path, source: serde_json::Error) -> MapJsonError {
     if let Some(io) = source.io_error_kind() {
         let source = std::io::Error::new(io, source);
         return MapJsonError::Io {

@@ -190,24 +190,28 @@ fn within(map: &[Segment], s: &Segment, j: usize, gap_m: f64) -> bool {
     map[j].distance_to_segment_within(s, gap_m).is_some()
 }
 
+/// Each scan segment's box query on its case's grid, filtered to the map segments truly
+/// within `gap_m`.
+fn grid_box_hits(cases: &[Case], grids: &[SegmentIndex<usize>], gap_m: f64) {
+    for (case, index) in cases.iter().zip(grids) {
+        for s in &case.scan {
+            let (lo, hi) = box_of(s, gap_m);
+            let keys = index.in_box(lo, hi);
+            black_box(
+                keys.into_iter()
+                    .filter(|&j| within(&case.map, s, j, gap_m))
+                    .count(),
+            );
+        }
+    }
+}
+
 fn bench_box(c: &mut Criterion, name: &str, cases: &[Case], gap_m: f64) {
     let queries = cases.iter().map(|c| c.scan.len()).sum();
     let mut g = group(c, "segment_index/box", queries);
     let grids: Vec<_> = cases.iter().map(|c| grid(&c.map)).collect();
     g.bench_function(format!("grid/{name}"), |b| {
-        b.iter(|| {
-            for (case, index) in cases.iter().zip(&grids) {
-                for s in &case.scan {
-                    let (lo, hi) = box_of(s, gap_m);
-                    let keys = index.in_box(lo, hi);
-                    black_box(
-                        keys.into_iter()
-                            .filter(|&j| within(&case.map, s, j, gap_m))
-                            .count(),
-                    );
-                }
-            }
-        })
+        b.iter(|| grid_box_hits(cases, &grids, gap_m))
     });
     g.bench_function(format!("grid_near_segment/{name}"), |b| {
         b.iter(|| {
@@ -223,19 +227,7 @@ fn bench_box(c: &mut Criterion, name: &str, cases: &[Case], gap_m: f64) {
         .map(|c| SegmentIndex::from_segments(&c.map, 0.5, 0.0))
         .collect();
     g.bench_function(format!("grid_reach0/{name}"), |b| {
-        b.iter(|| {
-            for (case, index) in cases.iter().zip(&grids0) {
-                for s in &case.scan {
-                    let (lo, hi) = box_of(s, gap_m);
-                    let keys = index.in_box(lo, hi);
-                    black_box(
-                        keys.into_iter()
-                            .filter(|&j| within(&case.map, s, j, gap_m))
-                            .count(),
-                    );
-                }
-            }
-        })
+        b.iter(|| grid_box_hits(cases, &grids0, gap_m))
     });
     let rects: Vec<_> = cases.iter().map(|c| rect_tree(&c.map)).collect();
     g.bench_function(format!("rstar_box/{name}"), |b| {

@@ -42,6 +42,7 @@ use polymap::align::{SegmentLookup, align_points, thin_points};
 use polymap::config::Config;
 use polymap::directions::main_directions;
 use polymap::extract::extract_segments;
+use polymap::map::GlobalMap;
 use polymap::merge::{insert_vertices, merge_scan, restrictive_pairing, simplify};
 use polymap::observe::{ObserveParams, observe_scan};
 use support::{STEPS, Step, sources, steps, warm_scans};
@@ -186,12 +187,7 @@ fn bench_merge(c: &mut Criterion, sources: &[Source]) {
         });
         g.bench_function(format!("merge_scan/{}", s.name), |b| {
             b.iter_batched(
-                || {
-                    s.steps
-                        .iter()
-                        .map(|st| st.mapper.map().clone())
-                        .collect::<Vec<_>>()
-                },
+                || maps_before(s),
                 |mut maps| {
                     for (map, st) in maps.iter_mut().zip(&s.steps) {
                         let t = st.mapper.scans();
@@ -206,6 +202,11 @@ fn bench_merge(c: &mut Criterion, sources: &[Source]) {
     g.finish();
 }
 
+/// Each step's map before its scan, cloned (the setup of a batch that changes them).
+fn maps_before(s: &Source) -> Vec<GlobalMap> {
+    s.steps.iter().map(|st| st.mapper.map().clone()).collect()
+}
+
 fn bench_observe(c: &mut Criterion, sources: &[Source]) {
     let p = ObserveParams {
         min_travel_m: 0.0,
@@ -215,12 +216,7 @@ fn bench_observe(c: &mut Criterion, sources: &[Source]) {
     for s in sources {
         g.bench_function(format!("observe_scan/{}", s.name), |b| {
             b.iter_batched(
-                || {
-                    s.steps
-                        .iter()
-                        .map(|st| st.mapper.map().clone())
-                        .collect::<Vec<_>>()
-                },
+                || maps_before(s),
                 |mut maps| {
                     for (map, st) in maps.iter_mut().zip(&s.steps) {
                         let t = st.mapper.scans();

@@ -104,16 +104,16 @@ fn normal_equations(
     (h, g)
 }
 
-/// Moves `pose` onto `anchor` along the directions the constraints leave unobservable; returns
-/// how many directions that was, and the map-frame direction (degrees, `[0, 180)`) of the
-/// weakest one's translation when there was one with a translational part.
+/// Moves `pose` onto `anchor` along the directions that the information `h` (of the final
+/// constraints at `pose`) leaves unobservable; returns how many directions that was, and the
+/// map-frame direction (degrees, `[0, 180)`) of the weakest one's translation when there was
+/// one with a translational part.
 fn anchor_weak_directions(
-    constraints: &[Constraint],
+    h: DMat3,
     pose: &mut Pose2,
     anchor: &Pose2,
     params: &AlignParams,
 ) -> (u8, Option<f64>) {
-    let (h, _) = normal_equations(constraints, pose, params);
     let (values, vectors) = symmetric_eigen(h);
     let to_anchor = DVec3::new(
         anchor.x_m - pose.x_m,
@@ -291,10 +291,11 @@ pub(crate) fn run_icp(
             break;
         }
     }
-    result.translation_information =
-        translation_information(&normal_equations(&constraints, &result.map_from_robot, params).0);
-    let (weak, direction) =
-        anchor_weak_directions(&constraints, &mut result.map_from_robot, &anchor, params);
+    // The information of the final constraints at the final pose, before the weak directions
+    // are put on the anchor.
+    let (h, _) = normal_equations(&constraints, &result.map_from_robot, params);
+    result.translation_information = translation_information(&h);
+    let (weak, direction) = anchor_weak_directions(h, &mut result.map_from_robot, &anchor, params);
     result.weak_directions = weak;
     result.weak_direction_deg = direction;
     result

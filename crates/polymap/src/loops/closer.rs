@@ -48,7 +48,8 @@ pub struct LoopCloser {
     params: LoopParams,
     /// The mapper's view of the node poses (map frame), with every correction taken in.
     poses: Vec<Pose2>,
-    open: OpenNode,
+    /// The node being filled; `None` before the first scan and after a node ends.
+    open: Option<OpenNode>,
     worker: Worker,
     loop_edges: usize,
     /// The first failure of the graph's work; loop closure stops there.
@@ -57,8 +58,6 @@ pub struct LoopCloser {
     first_new: usize,
     /// The first scan (`t`) of each of this run's nodes.
     node_starts: Vec<u32>,
-    /// Whether `open` holds a node (false before the first scan and after a node ends).
-    is_open: bool,
 }
 
 impl LoopCloser {
@@ -79,12 +78,11 @@ impl LoopCloser {
             worker: Worker::new(graph, params.background),
             params,
             poses: Vec::new(),
-            open: OpenNode::default(),
+            open: None,
             loop_edges: 0,
             failure: None,
             first_new: 0,
             node_starts: Vec::new(),
-            is_open: false,
         }
     }
 
@@ -188,35 +186,34 @@ impl LoopCloser {
         if self.failure.is_some() {
             return None;
         }
-        if !self.is_open {
+        if self.open.is_none() {
             self.node_starts.push(t);
             // A saved map's last node is no neighbour of this run's first: no motion joins them.
             let first = self.node_starts.len() == 1;
             let previous = self.poses.last().filter(|_| !first);
-            self.open = OpenNode {
+            self.open = Some(OpenNode {
                 from_previous: previous.map(|last| last.between(&map_from_robot)),
                 last: map_from_robot,
                 ..OpenNode::default()
-            };
+            });
             self.poses.push(map_from_robot);
-            self.is_open = true;
         }
         let k = self.poses.len() - 1;
-        let step_m = (map_from_robot.translation() - self.open.last.translation()).length();
-        self.open.last = map_from_robot;
-        self.open.travel_m += step_m;
-        self.open.since_kept.1 += step_m;
         let p = &self.params;
-        let keep = self.open.scans == 0
-            || self.open.since_kept.0 + 1 >= p.node_keep_every
-            || (p.node_keep_travel_m > 0.0 && self.open.since_kept.1 >= p.node_keep_travel_m);
-        self.open.scans += 1;
-        self.open.since_kept.0 += 1;
+        let open = self.open.as_mut()?;
+        let step_m = (map_from_robot.translation() - open.last.translation()).length();
+        open.last = map_from_robot;
+        open.travel_m += step_m;
+        open.since_kept.1 += step_m;
+        let keep = open.scans == 0
+            || open.since_kept.0 + 1 >= p.node_keep_every
+            || (p.node_keep_travel_m > 0.0 && open.since_kept.1 >= p.node_keep_travel_m);
+        open.scans += 1;
+        open.since_kept.0 += 1;
         if keep {
-            self.open.since_kept = (0, 0.0);
+            open.since_kept = (0, 0.0);
             let node_from_robot = self.poses[k].between(&map_from_robot);
-            let spacing = self.params.node_point_spacing_m;
-            let open = &mut self.open;
+            let spacing = p.node_point_spacing_m;
             for p in points_in_robot {
                 let q = node_from_robot.transform_point(*p);
                 let cell = (
@@ -233,14 +230,12 @@ impl LoopCloser {
                     .map(|s| s.transformed(&node_from_robot)),
             );
         }
-        let p = &self.params;
-        let ends = self.open.scans >= p.node_scans
-            || (p.node_travel_m > 0.0 && self.open.travel_m >= p.node_travel_m);
+        let ends = open.scans >= p.node_scans
+            || (p.node_travel_m > 0.0 && open.travel_m >= p.node_travel_m);
         if !ends {
             return None;
         }
-        self.is_open = false;
-        let open = std::mem::take(&mut self.open);
+        let open = self.open.take()?;
         self.worker.hand_over(NodeDone {
             node: k,
             pose: self.poses[k],
