@@ -21,6 +21,7 @@
 //! hypotheses from pairs of segments (`pairs.rs`), verified on a [`ScoreRaster`], refined by
 //! [`CorrelativeMatcher`] and ICP (`global.rs`).
 
+mod corner_seeds;
 mod correlative;
 mod endpoints;
 mod global;
@@ -39,6 +40,7 @@ use serde::{Deserialize, Serialize};
 use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::segment_index::NearestCertificate;
+pub use corner_seeds::corner_seeds;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 pub use endpoints::align_endpoints;
 pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, map_bounds};

@@ -480,7 +480,7 @@ fn map_of(segments: &[Segment], like: &GlobalMap) -> GlobalMap {
 }
 
 /// Every pose of every pair of matching corners, without repeats.
-fn hypotheses(fixed: &[Corner], moving: &[Corner], params: &GlobalParams) -> Vec<Pose2> {
+pub(super) fn hypotheses(fixed: &[Corner], moving: &[Corner], params: &GlobalParams) -> Vec<Pose2> {
     let tolerance = params.angle_tolerance_deg.to_radians();
     let mut moving: Vec<&Corner> = moving.iter().collect();
     moving.sort_by(|a, b| a.angle_rad.total_cmp(&b.angle_rad));
@@ -507,7 +507,7 @@ fn hypotheses(fixed: &[Corner], moving: &[Corner], params: &GlobalParams) -> Vec
 }
 
 /// The mean raster value under `points` (moving frame) placed by `pose`.
-fn raster_score(raster: &ScoreRaster, points: &[Vec2], pose: &Pose2) -> f64 {
+pub(super) fn raster_score(raster: &ScoreRaster, points: &[Vec2], pose: &Pose2) -> f64 {
     if points.is_empty() {
         return 0.0;
     }

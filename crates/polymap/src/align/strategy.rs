@@ -21,7 +21,14 @@
 //!    [`search_window`], or the whole map every `tracking.relocalize_every_lost` scans lost in
 //!    a row; ICP from its best pose replaces ICP from the starts only with
 //!    `tracking.search_win_margin` more inliers (plus two).
-//! 4. **Verdict** ([`verdict`]), `weak` (`ambiguous`) when the search found a rival.
+//! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`
+//!    (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
+//!    farther than the window reaches. ICP from the best distinct poses that put a corner of
+//!    the scan on a corner of the map within `tracking.corner_reach_m` of the guess
+//!    ([`corner_seeds`]), scored above ICP's pose on the search raster; the best replaces
+//!    ICP's pose with `tracking.corner_win_ratio` times its inliers (plus two) when at least
+//!    `tracking.search_below_inlier_share` of the points are inliers.
+//! 5. **Verdict** ([`verdict`]), `weak` (`ambiguous`) when the search found a rival.
 
 use super::global::bounds;
 use super::track::{
@@ -30,8 +37,8 @@ use super::track::{
 };
 use super::{
     AlignMethod, AlignParams, AlignResult, SearchWindow, SegmentLookup, align_endpoints,
-    align_points, fit_score, fit_score_above, map_bounds, rotation_search, score_sample,
-    thin_points,
+    align_points, corner_seeds, fit_score, fit_score_above, map_bounds, rotation_search,
+    score_sample, thin_points,
 };
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
@@ -101,16 +108,32 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
         config,
         points: &points,
     };
-    let (result, found, search_won) = tracker.icp();
+    let (mut result, found, search_won) = tracker.icp();
     let first = input.map.is_empty();
+    let mut corner_won = false;
+    if let Some(r) = &result
+        && config.tracking.corner_hypotheses
+        && doubtful(&verdict(Some(r), points.len(), first, config.tracking))
+        && let Some(c) = tracker.icp_from_corners(r)
+    {
+        result = Some(c);
+        corner_won = true;
+    }
     let mut tracking = verdict(result.as_ref(), points.len(), first, config.tracking);
     tracking.searched = found.is_some();
     tracking.search_won = search_won;
+    tracking.corner_won = corner_won;
     if tracking.verdict == Verdict::Ok && found.is_some_and(|m| m.ambiguous()) {
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::Ambiguous;
     }
     (result, tracking)
+}
+
+/// Whether a verdict leaves the pose in doubt enough to try the corner hypotheses: `lost`, or
+/// `weak` for a poor fit.
+fn doubtful(tracking: &Tracking) -> bool {
+    tracking.verdict == Verdict::Lost || tracking.reason == Reason::PoorFit
 }
 
 /// A window over the whole map and the whole circle, centred on the map's bounding box with
@@ -215,14 +238,7 @@ impl Tracker<'_> {
         if found.best.map_from_robot == result.map_from_robot {
             return (Some(result), Some(found), false); // nothing in the window beat ICP's pose
         }
-        let start = found.best.map_from_robot;
-        let near = match self.config.align.method {
-            AlignMethod::PointToSegment => Vec::new(),
-            AlignMethod::Endpoints => {
-                segments_near(input, &start, self.config.align).unwrap_or_default()
-            }
-        };
-        let searched = self.run(&near, start);
+        let searched = self.run_near(found.best.map_from_robot);
         // The search's pose must fit clearly better: along a corridor, or with odometry's good
         // guess, a pose that fits a few more points by coincidence is no evidence.
         let margin = tracking.search_win_margin;
@@ -231,6 +247,43 @@ impl Tracker<'_> {
         } else {
             (Some(result), Some(found), false)
         }
+    }
+
+    /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
+    /// score above `current`'s pose; the best of them when it has `tracking.corner_win_ratio`
+    /// times `current`'s inliers (plus two) and at least `tracking.search_below_inlier_share`
+    /// of the points are inliers.
+    fn icp_from_corners(&self, current: &AlignResult) -> Option<AlignResult> {
+        let input = self.input;
+        let tracking = self.config.tracking;
+        let seeds = corner_seeds(
+            input.map,
+            &input.loose.all(),
+            self.points,
+            input.segments_in_robot,
+            &input.guess,
+            Some(&current.map_from_robot),
+            tracking,
+        );
+        let best = best_of(seeds.iter().map(|c| self.run_near(c.map_from_robot)))?;
+        // A pose away from the prediction needs more evidence than one near it: half again
+        // the inliers, and a fit that would need no search.
+        let n = self.points.len() as f64;
+        let wins = best.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
+            && best.inliers as f64 >= tracking.search_below_inlier_share * n;
+        wins.then_some(best)
+    }
+
+    /// One ICP run from a pose far from the guess: [`Tracker::run`] with the map segments near
+    /// `start` for endpoint ICP.
+    fn run_near(&self, start: Pose2) -> AlignResult {
+        let near = match self.config.align.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => {
+                segments_near(self.input, &start, self.config.align).unwrap_or_default()
+            }
+        };
+        self.run(&near, start)
     }
 
     /// One ICP run from `start` with the configured correspondences; `near` are the map
@@ -361,7 +414,7 @@ impl Tracker<'_> {
 mod tests {
     use super::*;
     use crate::extract::{ExtractParams, extract_segments};
-    use crate::testutil::{cast_360 as cast, map_of, room};
+    use crate::testutil::{cast_360 as cast, map_of, room, seg};
 
     /// Tracks a scan taken at `truth` from `guess` (also the anchor), after `lost_streak` scans
     /// lost.
@@ -372,7 +425,33 @@ mod tests {
         guess: Pose2,
         lost_streak: u32,
     ) -> TrackResult {
-        let points = cast(&room(), &truth);
+        let tracking = TrackParams::default();
+        track_with(method, &room(), map, truth, guess, lost_streak, &tracking)
+    }
+
+    /// Point-to-segment ICP in `world` with these tracking parameters, nothing lost before.
+    fn track_in(
+        world: &[Segment],
+        map: &GlobalMap,
+        truth: Pose2,
+        guess: Pose2,
+        tracking: &TrackParams,
+    ) -> TrackResult {
+        let method = AlignMethod::PointToSegment;
+        track_with(method, world, map, truth, guess, 0, tracking)
+    }
+
+    /// [`track`] in `world` with these tracking parameters.
+    fn track_with(
+        method: AlignMethod,
+        world: &[Segment],
+        map: &GlobalMap,
+        truth: Pose2,
+        guess: Pose2,
+        lost_streak: u32,
+        tracking: &TrackParams,
+    ) -> TrackResult {
+        let points = cast(world, &truth);
         let segments: Vec<Segment> =
             extract_segments(&points, 1f64.to_radians(), &ExtractParams::default())
                 .iter()
@@ -396,7 +475,7 @@ mod tests {
         };
         let config = TrackConfig {
             align: &align,
-            tracking: &TrackParams::default(),
+            tracking,
             starts: &MapperParams::default(),
         };
         track_scan(&input, &config)
@@ -445,6 +524,38 @@ mod tests {
         let searched = track(AlignMethod::PointToSegment, &map, truth, guess, 1);
         assert_near(&truth, &searched);
         assert!(searched.1.searched);
+    }
+
+    /// 2.2 m and 70° away in a room of walls at unlike angles, beyond the window search
+    /// (±0.3 m from a guess of no motion) and the recovery (1 m): ICP fits poorly there, and
+    /// a corner of the scan matched to one of the map finds the pose.
+    #[test]
+    fn a_motion_beyond_the_window_is_found_by_corner_hypotheses() {
+        let world = [
+            seg(0.0, 0.0, 8.0, 0.0),
+            seg(8.0, 0.0, 9.0, 5.0),
+            seg(9.0, 5.0, 3.0, 7.0),
+            seg(3.0, 7.0, -1.0, 4.0),
+            seg(-1.0, 4.0, 0.0, 0.0),
+            seg(5.0, 2.0, 6.0, 2.5),
+            seg(6.0, 2.5, 5.5, 3.5),
+        ];
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
+        let guess = Pose2::new(4.0, 3.0, 0.0);
+        let found = track_in(&world, &map, truth, guess, &TrackParams::default());
+        assert_near(&truth, &found);
+        assert!(found.1.corner_won, "{:?}", found.1);
+        assert_eq!(found.1.verdict, Verdict::Ok, "{:?}", found.1);
+        let without = TrackParams {
+            corner_hypotheses: false,
+            ..TrackParams::default()
+        };
+        let (result, tracking) = track_in(&world, &map, truth, guess, &without);
+        let e = truth.between(&result.expect("a pose").map_from_robot);
+        assert!(e.translation().length() > 0.5, "{e:?}");
+        assert!(!tracking.corner_won);
+        assert_ne!(tracking.verdict, Verdict::Ok, "{tracking:?}");
     }
 
     #[test]

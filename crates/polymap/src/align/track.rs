@@ -106,6 +106,22 @@ pub struct TrackParams {
     pub loose_point_scans: usize,
     /// Loose points are thinned to this spacing, metres.
     pub loose_point_spacing_m: f64,
+    /// When the final pose is still `lost` or a `poor_fit` (the motion went beyond the window
+    /// search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
+    /// (see [`crate::align::corner_seeds`]).
+    pub corner_hypotheses: bool,
+    /// Only corner hypotheses within this distance of the prediction count, metres (the map
+    /// of a building repeats its corners farther away).
+    pub corner_reach_m: f64,
+    /// ICP runs from at most this many distinct corner hypotheses, the best-scoring first.
+    pub corner_seeds: usize,
+    /// ICP from a corner hypothesis replaces ICP from the prediction only with this many times
+    /// its inliers (plus two): a pose away from the prediction needs more evidence than the
+    /// window search's (`search_win_margin`).
+    pub corner_win_ratio: f64,
+    /// Only segments at least this long form corners, metres (a scan's segments are short:
+    /// clutter and door frames cut its walls).
+    pub corner_min_segment_m: f64,
 }
 
 impl Default for TrackParams {
@@ -144,6 +160,11 @@ impl Default for TrackParams {
             ambiguous_above: 0.95,
             loose_point_scans: 5,
             loose_point_spacing_m: 0.1,
+            corner_hypotheses: true,
+            corner_reach_m: 3.0,
+            corner_seeds: 3,
+            corner_win_ratio: 1.5,
+            corner_min_segment_m: 0.3,
         }
     }
 }
@@ -208,6 +229,14 @@ impl TrackParams {
                 0.01,
                 10.0,
             )
+            .within("corner_reach_m", self.corner_reach_m, 0.0, 1e3)
+            .within("corner_seeds", self.corner_seeds, 1, 100)
+            .within(
+                "corner_min_segment_m",
+                self.corner_min_segment_m,
+                0.0,
+                100.0,
+            )
             .done()
     }
 }
@@ -267,9 +296,26 @@ pub struct Tracking {
     pub searched: bool,
     /// Whether the search's pose won over ICP from the prediction.
     pub search_won: bool,
+    /// Whether ICP from a corner hypothesis ([`crate::align::corner_seeds`]) won: the scan
+    /// moved beyond the window search.
+    #[serde(default)]
+    pub corner_won: bool,
     /// Map-frame direction, degrees in `[0, 180)`, along which translation was unobservable,
     /// when one was.
     pub weak_direction_deg: Option<f64>,
+}
+
+impl Tracking {
+    /// Whether the scan's segments enter the map: never for a `lost` scan; not for one `weak`
+    /// for a poor fit or an ambiguous search unless `merge_doubtful_scans`; not for one placed
+    /// by a corner hypothesis unless it is `ok` (a pose away from the prediction enters the
+    /// map only when the scan fits there without doubt; the scan still tracks from it).
+    pub fn enters_map(&self, merge_doubtful_scans: bool) -> bool {
+        let doubtful = matches!(self.reason, Reason::PoorFit | Reason::Ambiguous);
+        self.verdict != Verdict::Lost
+            && (merge_doubtful_scans || !doubtful)
+            && (!self.corner_won || self.verdict == Verdict::Ok)
+    }
 }
 
 /// Whether the window search should run: large motion (predicted, or of any of the last few
@@ -394,20 +440,10 @@ impl WindowMatch {
     }
 }
 
-/// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
-/// of the loose points near it that the map does not explain (map frame), with its rival;
-/// `None` when nothing scores. A `seed` pose (ICP's answer) is the score to beat: the search
-/// then only opens blocks that could beat it, and returns the seed when none does.
-pub fn window_search(
-    map: &GlobalMap,
-    loose_points_in_map: &[Vec2],
-    points_in_robot: &[Vec2],
-    window: &SearchWindow,
-    seed: Option<Pose2>,
-    params: &TrackParams,
-) -> Option<WindowMatch> {
-    // Far points sharpen the rotation but widen the raster (its cost): up to a range, unless
-    // too few are that near.
+/// The scan points (robot frame) a search scores: about `search_points` of them, only those
+/// within `search_max_range_m` unless fewer than 20 are. Far points sharpen the rotation but
+/// widen the raster (its cost).
+pub(super) fn search_sample(points_in_robot: &[Vec2], params: &TrackParams) -> Vec<Vec2> {
     let near: Vec<Vec2> = points_in_robot
         .iter()
         .copied()
@@ -418,13 +454,18 @@ pub fn window_search(
     } else {
         points_in_robot
     };
-    let sample = score_sample_n(points, params.search_points);
-    let reach_m = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
-    let margin = Vec2::splat(window.half_xy_m + reach_m + params.search_sigma_m);
-    let (lo, hi) = (
-        window.center.translation() - margin,
-        window.center.translation() + margin,
-    );
+    score_sample_n(points, params.search_points)
+}
+
+/// The search raster over the box `lo`..`hi` (map frame, metres): the map's segments there and
+/// the loose points (map frame) they leave unexplained; `None` when neither has any.
+pub(super) fn search_raster(
+    map: &GlobalMap,
+    loose_points_in_map: &[Vec2],
+    lo: Vec2,
+    hi: Vec2,
+    params: &TrackParams,
+) -> Option<ScoreRaster> {
     let mut raster = ScoreRaster::new(lo, hi, params.search_cell_m, params.search_sigma_m);
     let mut any = false;
     for id in map.query(lo, hi) {
@@ -445,9 +486,29 @@ pub fn window_search(
         raster.add_point(*p);
         any = true;
     }
-    if !any {
-        return None;
-    }
+    any.then_some(raster)
+}
+
+/// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
+/// of the loose points near it that the map does not explain (map frame), with its rival;
+/// `None` when nothing scores. A `seed` pose (ICP's answer) is the score to beat: the search
+/// then only opens blocks that could beat it, and returns the seed when none does.
+pub fn window_search(
+    map: &GlobalMap,
+    loose_points_in_map: &[Vec2],
+    points_in_robot: &[Vec2],
+    window: &SearchWindow,
+    seed: Option<Pose2>,
+    params: &TrackParams,
+) -> Option<WindowMatch> {
+    let sample = search_sample(points_in_robot, params);
+    let reach_m = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
+    let margin = Vec2::splat(window.half_xy_m + reach_m + params.search_sigma_m);
+    let (lo, hi) = (
+        window.center.translation() - margin,
+        window.center.translation() + margin,
+    );
+    let raster = search_raster(map, loose_points_in_map, lo, hi, params)?;
     let seeded = seed.map(|pose| Candidate {
         map_from_robot: pose,
         score: sample
@@ -522,6 +583,7 @@ pub fn verdict(
         inlier_share: share,
         searched: false,
         search_won: false,
+        corner_won: false,
         weak_direction_deg,
     }
 }
@@ -560,6 +622,29 @@ impl LoosePoints {
 mod tests {
     use super::*;
     use crate::align::TranslationInformation;
+
+    #[test]
+    fn lost_doubtful_and_unsure_corner_scans_stay_out_of_the_map() {
+        let at = |verdict, reason, corner_won| Tracking {
+            verdict,
+            reason,
+            corner_won,
+            ..Tracking::default()
+        };
+        let ok = at(Verdict::Ok, Reason::Fit, false);
+        assert!(ok.enters_map(false) && ok.enters_map(true));
+        let lost = at(Verdict::Lost, Reason::Contradicted, false);
+        assert!(!lost.enters_map(true));
+        let poor = at(Verdict::Weak, Reason::PoorFit, false);
+        assert!(poor.enters_map(true) && !poor.enters_map(false));
+        let slid = at(Verdict::Weak, Reason::WeaklyObserved, false);
+        assert!(slid.enters_map(false));
+        let corner_ok = at(Verdict::Ok, Reason::Fit, true);
+        assert!(corner_ok.enters_map(true));
+        for reason in [Reason::Ambiguous, Reason::WeaklyObserved, Reason::PoorFit] {
+            assert!(!at(Verdict::Weak, reason, true).enters_map(true));
+        }
+    }
 
     #[test]
     fn the_window_grows_with_the_motion_and_when_lost() {

@@ -500,9 +500,8 @@ impl Mapper {
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
         // which is not where it is sure to be: one wrong scan in the map misleads the next.
-        let doubtful = matches!(tracking.reason, Reason::PoorFit | Reason::Ambiguous)
-            && !self.config.tracking.merge_doubtful_scans;
-        let scan_in_map: Vec<Segment> = if lost || doubtful {
+        let merge_doubtful = self.config.tracking.merge_doubtful_scans;
+        let scan_in_map: Vec<Segment> = if !tracking.enters_map(merge_doubtful) {
             Vec::new()
         } else {
             scan.segments_in_robot

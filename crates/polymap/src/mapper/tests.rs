@@ -132,7 +132,8 @@ fn blind_scans_after_the_first_stay_put() {
 }
 
 /// After a gap in the log the robot has turned 70° in place, far beyond the rotation search:
-/// the scan fits nowhere near the guess, and the whole-circle search puts it back.
+/// the scan fits nowhere near the guess, and the whole-circle search puts it back (so do the
+/// corner hypotheses).
 #[test]
 fn a_turn_during_a_gap_is_recovered() {
     let walls = room();
@@ -153,8 +154,13 @@ fn a_turn_during_a_gap_is_recovered() {
     };
     let recovered = run(Config::default());
     assert!(recovered < 1.0, "{recovered}° off");
-    let mut off = Config::default();
-    off.mapper.recover_below_inlier_share = 0.0;
+    // The corner hypotheses find the turn as well, on their own.
+    let mut corners_only = Config::default();
+    corners_only.mapper.recover_below_inlier_share = 0.0;
+    let by_corners = run(corners_only.clone());
+    assert!(by_corners < 1.0, "{by_corners}° off by the corners alone");
+    let mut off = corners_only;
+    off.tracking.corner_hypotheses = false;
     assert!(
         run(off) > 10.0,
         "the test needs a turn the normal search misses"
