@@ -231,6 +231,8 @@ impl TrackParams {
             )
             .within("corner_reach_m", self.corner_reach_m, 0.0, 1e3)
             .within("corner_seeds", self.corner_seeds, 1, 100)
+            .within("corner_win_ratio", self.corner_win_ratio, 1.0, 100.0)
+            .within("corner_min_segment_m", self.corner_min_segment_m, 0.0, 100.0)
             .within(
                 "corner_min_segment_m",
                 self.corner_min_segment_m,
