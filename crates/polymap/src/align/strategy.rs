@@ -27,7 +27,8 @@
 //!    the scan on a corner of the map within `tracking.corner_reach_m` of the guess
 //!    ([`corner_seeds`]), scored above ICP's pose on the search raster; the best replaces
 //!    ICP's pose with `tracking.corner_win_ratio` times its inliers (plus two) when at least
-//!    `tracking.search_below_inlier_share` of the points are inliers.
+//!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
+//!    from another hypothesis has `tracking.corner_rival_below` of its inliers.
 //! 5. **Verdict** ([`verdict`]), `weak` (`ambiguous`) when the search found a rival.
 
 use super::global::bounds;
@@ -251,8 +252,9 @@ impl Tracker<'_> {
 
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
     /// score above `current`'s pose; the best of them when it has `tracking.corner_win_ratio`
-    /// times `current`'s inliers (plus two) and at least `tracking.search_below_inlier_share`
-    /// of the points are inliers.
+    /// times `current`'s inliers (plus two), at least `tracking.search_below_inlier_share` of
+    /// the points are inliers, and no distinct pose from another hypothesis has
+    /// `tracking.corner_rival_below` of its inliers.
     fn icp_from_corners(&self, current: &AlignResult) -> Option<AlignResult> {
         let input = self.input;
         let tracking = self.config.tracking;
@@ -265,12 +267,27 @@ impl Tracker<'_> {
             Some(&current.map_from_robot),
             tracking,
         );
-        let best = best_of(seeds.iter().map(|c| self.run_near(c.map_from_robot)))?;
+        let all: Vec<AlignResult> = seeds
+            .iter()
+            .map(|c| self.run_near(c.map_from_robot))
+            .collect();
+        let best = best_of(all.iter().copied())?;
         // A pose away from the prediction needs more evidence than one near it: half again
-        // the inliers, and a fit that would need no search.
+        // the inliers, a fit that would need no search, and no distinct pose nearly as good
+        // (a building of alike rooms fits a scan turned by a right angle almost as well).
         let n = self.points.len() as f64;
+        let (apart_m, apart_rad) = (
+            tracking.rival_apart_m,
+            tracking.rival_apart_deg.to_radians(),
+        );
+        let rival = all.iter().any(|r| {
+            let d = best.map_from_robot.between(&r.map_from_robot);
+            let distinct = d.translation().length() >= apart_m || d.theta_rad.abs() >= apart_rad;
+            distinct && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
+        });
         let wins = best.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
-            && best.inliers as f64 >= tracking.search_below_inlier_share * n;
+            && best.inliers as f64 >= tracking.search_below_inlier_share * n
+            && !rival;
         wins.then_some(best)
     }
 
@@ -556,6 +573,77 @@ mod tests {
         assert!(e.translation().length() > 0.5, "{e:?}");
         assert!(!tracking.corner_won);
         assert_ne!(tracking.verdict, Verdict::Ok, "{tracking:?}");
+    }
+
+    /// A bare rectangular room fits the scan turned by half a turn about its centre as well as
+    /// at the truth: the hypotheses find both poses, each would win on its own, and neither
+    /// is taken.
+    #[test]
+    fn a_symmetric_room_gives_no_corner_pose() {
+        let world = [
+            seg(-5.0, -3.0, 5.0, -3.0),
+            seg(5.0, -3.0, 5.0, 3.0),
+            seg(5.0, 3.0, -5.0, 3.0),
+            seg(-5.0, 3.0, -5.0, -3.0),
+        ];
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(2.0, 1.0, 100f64.to_radians());
+        let guess = Pose2::new(0.0, 0.0, 0.0);
+        let points = cast(&world, &truth);
+        let segments: Vec<Segment> = world
+            .iter()
+            .map(|s| s.transformed(&truth.inverse()))
+            .collect();
+        let (loose, recent) = (LoosePoints::default(), RecentMotion::default());
+        let input = TrackInput {
+            points_in_robot: &points,
+            segments_in_robot: &segments,
+            map: &map,
+            loose: &loose,
+            guess,
+            anchor: guess,
+            constant_velocity: None,
+            recent: &recent,
+            lost_streak: 0,
+        };
+        let (align, tracking) = (AlignParams::default(), TrackParams::default());
+        let config = TrackConfig {
+            align: &align,
+            tracking: &tracking,
+            starts: &MapperParams::default(),
+        };
+        let thinned = thin_points(&points, align.point_spacing_m);
+        let tracker = Tracker {
+            input: &input,
+            config: &config,
+            points: &thinned,
+        };
+        let current = tracker.run(&[], guess);
+        let seeds = corner_seeds(
+            &map,
+            &[],
+            &thinned,
+            &segments,
+            &guess,
+            Some(&current.map_from_robot),
+            &tracking,
+        );
+        let n = thinned.len() as f64;
+        let would_win: Vec<Pose2> = seeds
+            .iter()
+            .map(|c| tracker.run_near(c.map_from_robot))
+            .filter(|r| {
+                let k = r.inliers as f64;
+                k >= tracking.corner_win_ratio * current.inliers as f64 + 2.0 && k >= 0.5 * n
+            })
+            .map(|r| r.map_from_robot)
+            .collect();
+        let half_turn = would_win.iter().any(|p| {
+            let d = would_win[0].between(p);
+            d.translation().length() > 1.0 && d.theta_rad.abs() > 3.0
+        });
+        assert!(half_turn, "{would_win:?}");
+        assert!(tracker.icp_from_corners(&current).is_none());
     }
 
     #[test]

@@ -119,6 +119,9 @@ pub struct TrackParams {
     /// its inliers (plus two): a pose away from the prediction needs more evidence than the
     /// window search's (`search_win_margin`).
     pub corner_win_ratio: f64,
+    /// ...and only when no distinct pose (`rival_apart_m` or `rival_apart_deg` away) from
+    /// another hypothesis has this share of its inliers.
+    pub corner_rival_below: f64,
     /// Only segments at least this long form corners, metres (a scan's segments are short:
     /// clutter and door frames cut its walls).
     pub corner_min_segment_m: f64,
@@ -164,6 +167,7 @@ impl Default for TrackParams {
             corner_reach_m: 3.0,
             corner_seeds: 3,
             corner_win_ratio: 1.5,
+            corner_rival_below: 0.85,
             corner_min_segment_m: 0.3,
         }
     }
@@ -232,7 +236,13 @@ impl TrackParams {
             .within("corner_reach_m", self.corner_reach_m, 0.0, 1e3)
             .within("corner_seeds", self.corner_seeds, 1, 100)
             .within("corner_win_ratio", self.corner_win_ratio, 1.0, 100.0)
-            .within("corner_min_segment_m", self.corner_min_segment_m, 0.0, 100.0)
+            .share("corner_rival_below", self.corner_rival_below)
+            .within(
+                "corner_min_segment_m",
+                self.corner_min_segment_m,
+                0.0,
+                100.0,
+            )
             .within(
                 "corner_min_segment_m",
                 self.corner_min_segment_m,
