@@ -6,22 +6,30 @@
 //! tracking); a corner seen in both the scan and the map gives the true pose wherever it is.
 
 use super::correlative::Candidate;
-use super::pair_search::{GlobalParams, hypotheses, raster_score};
+use super::pair_search::{GlobalParams, best_distinct, hypotheses, raster_score};
 use super::pairs::corners;
 use super::track::{TrackParams, search_raster, search_sample};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
 
-/// The best-scoring distinct poses (at least `rival_apart_m` or `rival_apart_deg` apart, at
+/// A scan's corners come from at most this many of its longest segments within
+/// `tracking.search_max_range_m` (a bound on the hypotheses: a scan has a few dozen).
+const SCAN_CORNER_SEGMENTS: usize = 30;
+
+/// The best-scoring distinct poses (more than `rival_apart_m` or `rival_apart_deg` apart, at
 /// most `corner_seeds`, best first) that put a corner of the scan (`segments_in_robot`, robot
-/// frame) on a corner of the map within `corner_reach_m` of `prediction`, scored like the
-/// window search (the mean search-raster value of the scan's points, `points_in_robot`, on
-/// the map's segments and the loose points it leaves unexplained, map frame). Only poses
-/// scoring above `beat` (ICP's pose) are kept. Empty when the scan or the map near has no
-/// corner.
+/// frame) on a corner of the map, with the robot within `corner_reach_m` of `prediction`,
+/// scored like the window search (the mean search-raster value of the scan's points,
+/// `points_in_robot`, on the map's segments and the loose points it leaves unexplained, map
+/// frame). Only poses scoring above `beat` (ICP's pose) are kept. Empty when the scan or the
+/// map near has no corner.
 ///
-/// Corners are formed as for merging maps ([`GlobalParams`]' defaults: segments ≥ 0.5 m,
-/// ≥ 30° from parallel, lines crossing within 1 m of both, angles matched within 4°).
+/// Corners are formed from segments at least `corner_min_segment_m` long, at least 30° from
+/// parallel, whose lines cross within 1 m of both, and matched when their angles agree within
+/// 4° ([`GlobalParams`]' defaults, as for merging maps). Only the scan's segments within
+/// `search_max_range_m` of the robot take part (at most [`SCAN_CORNER_SEGMENTS`] of them), and
+/// the map's within that range of a pose in reach (at most `GlobalParams::max_segments`, the
+/// longest): the hypotheses stay bounded whatever the map's size.
 pub fn corner_seeds(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
@@ -32,37 +40,39 @@ pub fn corner_seeds(
     params: &TrackParams,
 ) -> Vec<Candidate> {
     let corner = GlobalParams::default();
-    let corners_of = |segments: &[Segment]| {
+    let corners_of = |segments: &[Segment], max_segments: usize| {
         corners(
             segments,
             params.corner_min_segment_m,
-            corner.max_segments,
+            max_segments,
             corner.min_corner_angle_deg.to_radians(),
             corner.corner_reach_m,
         )
     };
-    let scan_corners = corners_of(segments_in_robot);
+    let range = params.search_max_range_m;
+    let in_range: Vec<Segment> = segments_in_robot
+        .iter()
+        .filter(|s| s.start.length() <= range && s.end.length() <= range)
+        .copied()
+        .collect();
+    let scan_corners = corners_of(&in_range, SCAN_CORNER_SEGMENTS);
     let sample = search_sample(points_in_robot, params);
     if scan_corners.is_empty() || sample.is_empty() {
         return Vec::new();
     }
-    // Map segments any scan corner could land on: the prediction's reach widened by the
-    // farthest scan corner and sample point.
-    let scan_reach = scan_corners
-        .iter()
-        .map(|c| c.point.length())
-        .chain(sample.iter().map(|p| p.length()))
-        .fold(0.0, f64::max);
-    let margin = Vec2::splat(params.corner_reach_m + scan_reach + params.search_sigma_m);
+    // The raster covers every pose in reach with the sample's farthest point; map corners
+    // are looked for where a scan corner (within range) can land.
     let center = prediction.translation();
-    let (lo, hi) = (center - margin, center + margin);
+    let sample_reach = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
+    let raster_margin = Vec2::splat(params.corner_reach_m + sample_reach + params.search_sigma_m);
+    let corner_margin = Vec2::splat(params.corner_reach_m + range + corner.corner_reach_m);
     let near: Vec<Segment> = map
-        .query(lo, hi)
+        .query(center - corner_margin, center + corner_margin)
         .into_iter()
         .filter_map(|id| map.get(id))
         .map(|s| s.segment)
         .collect();
-    let map_corners = corners_of(&near);
+    let map_corners = corners_of(&near, corner.max_segments);
     let poses: Vec<Pose2> = hypotheses(&map_corners, &scan_corners, &corner)
         .into_iter()
         .filter(|p| p.translation().distance(center) <= params.corner_reach_m)
@@ -70,34 +80,26 @@ pub fn corner_seeds(
     if poses.is_empty() {
         return Vec::new();
     }
+    let (lo, hi) = (center - raster_margin, center + raster_margin);
     let Some(raster) = search_raster(map, loose_points_in_map, lo, hi, params) else {
         return Vec::new();
     };
     let floor = beat.map_or(0.0, |p| raster_score(&raster, &sample, p));
-    let mut scored: Vec<Candidate> = poses
-        .into_iter()
-        .map(|p| Candidate {
-            map_from_robot: p,
-            score: raster_score(&raster, &sample, &p),
-        })
-        .filter(|c| c.score > floor)
-        .collect();
-    scored.sort_by(|a, b| b.score.total_cmp(&a.score));
-    let (apart_m, apart_rad) = (params.rival_apart_m, params.rival_apart_deg.to_radians());
-    let mut seeds: Vec<Candidate> = Vec::new();
-    for c in scored {
-        if seeds.len() >= params.corner_seeds {
-            break;
-        }
-        let distinct = seeds.iter().all(|s| {
-            let d = s.map_from_robot.between(&c.map_from_robot);
-            d.translation().length() >= apart_m || d.theta_rad.abs() >= apart_rad
-        });
-        if distinct {
-            seeds.push(c);
-        }
-    }
-    seeds
+    let distinct = |a: &Pose2, b: &Pose2| params.apart(a, b);
+    best_distinct(
+        &raster,
+        &sample,
+        &poses,
+        floor,
+        params.corner_seeds,
+        distinct,
+    )
+    .into_iter()
+    .map(|(score, map_from_robot)| Candidate {
+        map_from_robot,
+        score,
+    })
+    .collect()
 }
 
 #[cfg(test)]
@@ -135,9 +137,21 @@ mod tests {
             d.translation().length() < 0.05 && d.theta_rad.abs() < 0.02,
             "{best:?} against {truth:?}"
         );
-        // Beyond the reach, nothing.
-        let far = Pose2::new(20.0, 20.0, 0.0);
-        let none = corner_seeds(&map, &[], &points, &scan_segments, &far, None, &params);
-        assert!(none.is_empty());
+        // Beyond the reach, nothing: the map is near, but the truth is 3.4 m from the guess.
+        let near_truth = |seeds: &[Candidate]| {
+            seeds.iter().any(|c| {
+                let d = truth.between(&c.map_from_robot);
+                d.translation().length() < 0.5 && d.theta_rad.abs() < 0.2
+            })
+        };
+        let beyond = Pose2::new(1.3, 0.2, 0.0);
+        let seeds = corner_seeds(&map, &[], &points, &scan_segments, &beyond, None, &params);
+        assert!(!near_truth(&seeds), "{seeds:?}");
+        let farther = TrackParams {
+            corner_reach_m: 4.0,
+            ..params.clone()
+        };
+        let seeds = corner_seeds(&map, &[], &points, &scan_segments, &beyond, None, &farther);
+        assert!(near_truth(&seeds), "{seeds:?}");
     }
 }

@@ -528,21 +528,47 @@ fn coarse_seeds(
     params: &GlobalParams,
 ) -> Vec<Pose2> {
     let sample = score_sample_n(moving_points, params.coarse_points);
-    let mut scored: Vec<(f64, Pose2)> = hypotheses
+    let distinct = |a: &Pose2, b: &Pose2| !near_seed(a, b, params);
+    best_distinct(
+        coarse,
+        &sample,
+        hypotheses,
+        f64::NEG_INFINITY,
+        params.refined_clusters,
+        distinct,
+    )
+    .into_iter()
+    .map(|(_, p)| p)
+    .collect()
+}
+
+/// The best-scoring of `poses` on `raster` (the mean value under `sample`, moving frame) that
+/// score above `floor`, best first (equal scores in their given order), each `distinct` from
+/// every one kept before it, at most `max`: the seeds of a search from many hypotheses.
+pub(super) fn best_distinct(
+    raster: &ScoreRaster,
+    sample: &[Vec2],
+    poses: &[Pose2],
+    floor: f64,
+    max: usize,
+    distinct: impl Fn(&Pose2, &Pose2) -> bool,
+) -> Vec<(f64, Pose2)> {
+    let mut scored: Vec<(f64, Pose2)> = poses
         .iter()
-        .map(|h| (raster_score(coarse, &sample, h), *h))
+        .map(|h| (raster_score(raster, sample, h), *h))
+        .filter(|(score, _)| *score > floor)
         .collect();
     scored.sort_by(|a, b| b.0.total_cmp(&a.0));
-    let mut seeds: Vec<Pose2> = Vec::new();
-    for (_, h) in scored {
-        if seeds.len() >= params.refined_clusters {
+    let mut kept: Vec<(f64, Pose2)> = Vec::new();
+    for (score, h) in scored {
+        if kept.len() >= max {
             break;
         }
-        if !seeds.iter().any(|s| near_seed(s, &h, params)) {
-            seeds.push(h);
+        if kept.iter().all(|(_, k)| distinct(k, &h)) {
+            kept.push((score, h));
         }
     }
-    seeds
+    kept
 }
 
 /// Each seed refined by ICP on `icp_sample` and scored by `judge`; best first, poses that

@@ -29,7 +29,9 @@
 //!    ICP's pose with `tracking.corner_win_ratio` times its inliers (plus two) when at least
 //!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
 //!    from another hypothesis has `tracking.corner_rival_below` of its inliers.
-//! 5. **Verdict** ([`verdict`]), `weak` (`ambiguous`) when the search found a rival.
+//! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
+//!    found a rival (also when a corner pose won: the scan then stays out of the map, see
+//!    [`Tracking::enters_map`]).
 
 use super::global::bounds;
 use super::track::{
@@ -276,14 +278,9 @@ impl Tracker<'_> {
         // the inliers, a fit that would need no search, and no distinct pose nearly as good
         // (a building of alike rooms fits a scan turned by a right angle almost as well).
         let n = self.points.len() as f64;
-        let (apart_m, apart_rad) = (
-            tracking.rival_apart_m,
-            tracking.rival_apart_deg.to_radians(),
-        );
         let rival = all.iter().any(|r| {
-            let d = best.map_from_robot.between(&r.map_from_robot);
-            let distinct = d.translation().length() >= apart_m || d.theta_rad.abs() >= apart_rad;
-            distinct && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
+            tracking.apart(&best.map_from_robot, &r.map_from_robot)
+                && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
         });
         let wins = best.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
             && best.inliers as f64 >= tracking.search_below_inlier_share * n
@@ -573,6 +570,13 @@ mod tests {
         assert!(e.translation().length() > 0.5, "{e:?}");
         assert!(!tracking.corner_won);
         assert_ne!(tracking.verdict, Verdict::Ok, "{tracking:?}");
+        // The same pose, refused when it must explain more times ICP's inliers than it does.
+        let stricter = TrackParams {
+            corner_win_ratio: 50.0,
+            ..TrackParams::default()
+        };
+        let (_, tracking) = track_in(&world, &map, truth, guess, &stricter);
+        assert!(!tracking.corner_won, "{tracking:?}");
     }
 
     /// A bare rectangular room fits the scan turned by half a turn about its centre as well as

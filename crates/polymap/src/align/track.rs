@@ -116,11 +116,12 @@ pub struct TrackParams {
     /// ICP runs from at most this many distinct corner hypotheses, the best-scoring first.
     pub corner_seeds: usize,
     /// ICP from a corner hypothesis replaces ICP from the prediction only with this many times
-    /// its inliers (plus two): a pose away from the prediction needs more evidence than the
-    /// window search's (`search_win_margin`).
+    /// its inliers (plus two), and with at least `search_below_inlier_share` of the points
+    /// inliers: a pose away from the prediction needs more evidence than the window search's
+    /// (`search_win_margin`)...
     pub corner_win_ratio: f64,
-    /// ...and only when no distinct pose (`rival_apart_m` or `rival_apart_deg` away) from
-    /// another hypothesis has this share of its inliers.
+    /// ...and only when no distinct pose (more than `rival_apart_m` or `rival_apart_deg` away)
+    /// from another hypothesis has this share of its inliers.
     pub corner_rival_below: f64,
     /// Only segments at least this long form corners, metres (a scan's segments are short:
     /// clutter and door frames cut its walls).
@@ -237,13 +238,7 @@ impl TrackParams {
             .within("corner_seeds", self.corner_seeds, 1, 100)
             .within("corner_win_ratio", self.corner_win_ratio, 1.0, 100.0)
             .share("corner_rival_below", self.corner_rival_below)
-            .within(
-                "corner_min_segment_m",
-                self.corner_min_segment_m,
-                0.0,
-                100.0,
-            )
-            .within(
+            .above(
                 "corner_min_segment_m",
                 self.corner_min_segment_m,
                 0.0,
@@ -315,6 +310,16 @@ pub struct Tracking {
     /// Map-frame direction, degrees in `[0, 180)`, along which translation was unobservable,
     /// when one was.
     pub weak_direction_deg: Option<f64>,
+}
+
+impl TrackParams {
+    /// Whether two poses are distinct places: more than `rival_apart_m` or `rival_apart_deg`
+    /// apart (the rival of a search, of a placement, of a corner hypothesis).
+    pub fn apart(&self, a: &Pose2, b: &Pose2) -> bool {
+        let d = a.between(b);
+        d.translation().length() > self.rival_apart_m
+            || normalize_angle_rad(d.theta_rad).abs() > self.rival_apart_deg.to_radians()
+    }
 }
 
 impl Tracking {

@@ -16,7 +16,7 @@ use crate::align::{
 use crate::config::Config;
 use crate::directions::recent_main_directions;
 use crate::extract::{extract_segments, extract_segments_closed};
-use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
+use crate::geometry::{Pose2, Segment, Vec2};
 use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, SavedNode};
 use crate::map::{GlobalMap, MapSegment, Observations};
 pub use crate::merge::MergeDiagnostics;
@@ -487,7 +487,10 @@ impl Mapper {
         }
         self.verdicts.count(i, tracking.verdict, tracking.reason);
         self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
-        if !lost {
+        // A scan trusted too little to merge neither explains later searches (loose points)
+        // nor observes the map (see-through counts prune walls).
+        let enters = tracking.enters_map(self.config.tracking.merge_doubtful_scans);
+        if enters {
             let spacing = self.config.tracking.loose_point_spacing_m;
             let loose = thin_points(&scan.points_in_robot, spacing)
                 .into_iter()
@@ -500,8 +503,7 @@ impl Mapper {
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
         // which is not where it is sure to be: one wrong scan in the map misleads the next.
-        let merge_doubtful = self.config.tracking.merge_doubtful_scans;
-        let scan_in_map: Vec<Segment> = if !tracking.enters_map(merge_doubtful) {
+        let scan_in_map: Vec<Segment> = if !enters {
             Vec::new()
         } else {
             scan.segments_in_robot
@@ -521,7 +523,7 @@ impl Mapper {
             t,
         )
         .diagnostics;
-        if !lost {
+        if enters {
             observe_scan(
                 &mut self.map,
                 &scan.points_in_robot,

@@ -21,13 +21,6 @@ const PLACE_POINT_SPACING_M: f64 = 0.1;
 /// itself 3 searches in a row at one wrong place.
 const PLACE_RANGE_M: f64 = 15.0;
 
-/// Whether two poses are distinct places: `tracking.rival_apart_m` or `rival_apart_deg` apart.
-fn apart_by(a: &Pose2, b: &Pose2, params: &crate::align::TrackParams) -> bool {
-    let d = a.between(b);
-    d.translation().length() > params.rival_apart_m
-        || normalize_angle_rad(d.theta_rad).abs() > params.rival_apart_deg.to_radians()
-}
-
 impl Mapper {
     /// Once placed at `pose`, the scans before (tracked on their own map) are placed too: their
     /// poses move into the map's frame and their verdicts turn from lost to weak (placed after
@@ -120,7 +113,7 @@ impl Mapper {
             };
             return (None, tracking);
         };
-        let apart = |r: &AlignResult| apart_by(&best.map_from_robot, &r.map_from_robot, &params);
+        let apart = |r: &AlignResult| params.apart(&best.map_from_robot, &r.map_from_robot);
         let rival = results.iter().filter(|r| apart(r)).map(|r| r.inliers).max();
         let mut tracking = verdict(Some(&best), points.len(), false, &params);
         tracking.searched = true;
@@ -141,7 +134,7 @@ impl Mapper {
                 Verdict::Ok => {
                     let map_from_local = best.map_from_robot.compose(&robot_from_local);
                     let n = match self.agreement {
-                        Some((m, n)) if !apart_by(&m, &map_from_local, &params) => n + 1,
+                        Some((m, n)) if !params.apart(&m, &map_from_local) => n + 1,
                         _ => 1,
                     };
                     self.agreement = Some((map_from_local, n));
