@@ -12,8 +12,8 @@ use super::track::{TrackParams, search_raster, search_sample};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
 
-/// A scan's corners come from at most this many of its longest segments within
-/// `tracking.search_max_range_m` (a bound on the hypotheses: a scan has a few dozen).
+/// A scan's corners come from at most this many of its longest segments (a bound on the
+/// hypotheses: a scan has a few dozen).
 const SCAN_CORNER_SEGMENTS: usize = 30;
 
 /// The best-scoring distinct poses (more than `rival_apart_m` or `rival_apart_deg` apart, at
@@ -26,10 +26,11 @@ const SCAN_CORNER_SEGMENTS: usize = 30;
 ///
 /// Corners are formed from segments at least `corner_min_segment_m` long, at least 30° from
 /// parallel, whose lines cross within 1 m of both, and matched when their angles agree within
-/// 4° ([`GlobalParams`]' defaults, as for merging maps). Only the scan's segments within
-/// `search_max_range_m` of the robot take part (at most [`SCAN_CORNER_SEGMENTS`] of them), and
-/// the map's within that range of a pose in reach (at most `GlobalParams::max_segments`, the
-/// longest): the hypotheses stay bounded whatever the map's size.
+/// 4° ([`GlobalParams`]' defaults, as for merging maps). At most the
+/// [`SCAN_CORNER_SEGMENTS`] longest segments of the scan take part, and the
+/// `GlobalParams::max_segments` longest of the map where a scan corner can land from a pose in
+/// reach: the hypotheses stay bounded whatever the map's size (a far scan corner widens that
+/// box, and in a large map its short walls may then be left out).
 pub fn corner_seeds(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
@@ -49,23 +50,19 @@ pub fn corner_seeds(
             corner.corner_reach_m,
         )
     };
-    let range = params.search_max_range_m;
-    let in_range: Vec<Segment> = segments_in_robot
-        .iter()
-        .filter(|s| s.start.length() <= range && s.end.length() <= range)
-        .copied()
-        .collect();
-    let scan_corners = corners_of(&in_range, SCAN_CORNER_SEGMENTS);
+    let scan_corners = corners_of(segments_in_robot, SCAN_CORNER_SEGMENTS);
     let sample = search_sample(points_in_robot, params);
     if scan_corners.is_empty() || sample.is_empty() {
         return Vec::new();
     }
     // The raster covers every pose in reach with the sample's farthest point; map corners
-    // are looked for where a scan corner (within range) can land.
+    // are looked for wherever a scan corner can land (far corners count: FR079 at K = 5 lost
+    // its right pose when only corners within 8 m took part).
     let center = prediction.translation();
     let sample_reach = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
     let raster_margin = Vec2::splat(params.corner_reach_m + sample_reach + params.search_sigma_m);
-    let corner_margin = Vec2::splat(params.corner_reach_m + range + corner.corner_reach_m);
+    let far = scan_corners.iter().map(|c| c.point.length()).fold(0.0, f64::max);
+    let corner_margin = Vec2::splat(params.corner_reach_m + far + corner.corner_reach_m);
     let near: Vec<Segment> = map
         .query(center - corner_margin, center + corner_margin)
         .into_iter()
