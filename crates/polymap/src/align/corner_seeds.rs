@@ -61,7 +61,10 @@ pub fn corner_seeds(
     let center = prediction.translation();
     let sample_reach = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
     let raster_margin = Vec2::splat(params.corner_reach_m + sample_reach + params.search_sigma_m);
-    let far = scan_corners.iter().map(|c| c.point.length()).fold(0.0, f64::max);
+    let far = scan_corners
+        .iter()
+        .map(|c| c.point.length())
+        .fold(0.0, f64::max);
     let corner_margin = Vec2::splat(params.corner_reach_m + far + corner.corner_reach_m);
     let near: Vec<Segment> = map
         .query(center - corner_margin, center + corner_margin)
