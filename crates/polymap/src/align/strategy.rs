@@ -113,19 +113,17 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     };
     let (mut result, found, search_won) = tracker.icp();
     let first = input.map.is_empty();
-    let mut corner_won = false;
-    if let Some(r) = &result
-        && config.tracking.corner_hypotheses
-        && doubtful(&verdict(Some(r), points.len(), first, config.tracking))
-        && let Some(c) = tracker.icp_from_corners(r)
-    {
-        result = Some(c);
-        corner_won = true;
-    }
     let mut tracking = verdict(result.as_ref(), points.len(), first, config.tracking);
+    if config.tracking.corner_hypotheses
+        && doubtful(&tracking)
+        && let Some(c) = result.as_ref().and_then(|r| tracker.icp_from_corners(r))
+    {
+        tracking = verdict(Some(&c), points.len(), first, config.tracking);
+        tracking.corner_won = true;
+        result = Some(c);
+    }
     tracking.searched = found.is_some();
     tracking.search_won = search_won;
-    tracking.corner_won = corner_won;
     if tracking.verdict == Verdict::Ok && found.is_some_and(|m| m.ambiguous()) {
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::Ambiguous;
@@ -465,6 +463,18 @@ mod tests {
         lost_streak: u32,
         tracking: &TrackParams,
     ) -> TrackResult {
+        let scene = (world, map, truth, guess, lost_streak);
+        with_tracker(method, scene, tracking, |t| track_scan(t.input, t.config))
+    }
+
+    /// `f` of the tracker of a scan taken at `truth` in `world` (`scene`: the world, the map,
+    /// the truth, the guess, also the anchor, and the scans lost before).
+    fn with_tracker<R>(
+        method: AlignMethod,
+        (world, map, truth, guess, lost_streak): (&[Segment], &GlobalMap, Pose2, Pose2, u32),
+        tracking: &TrackParams,
+        f: impl FnOnce(&Tracker) -> R,
+    ) -> R {
         let points = cast(world, &truth);
         let segments: Vec<Segment> =
             extract_segments(&points, 1f64.to_radians(), &ExtractParams::default())
@@ -492,7 +502,12 @@ mod tests {
             tracking,
             starts: &MapperParams::default(),
         };
-        track_scan(&input, &config)
+        let thinned = thin_points(&points, align.point_spacing_m);
+        f(&Tracker {
+            input: &input,
+            config: &config,
+            points: &thinned,
+        })
     }
 
     type TrackResult = (Option<AlignResult>, Tracking);
@@ -593,61 +608,36 @@ mod tests {
         let map = map_of(&world, 0.5);
         let truth = Pose2::new(2.0, 1.0, 100f64.to_radians());
         let guess = Pose2::new(0.0, 0.0, 0.0);
-        let points = cast(&world, &truth);
-        let segments: Vec<Segment> = world
-            .iter()
-            .map(|s| s.transformed(&truth.inverse()))
-            .collect();
-        let (loose, recent) = (LoosePoints::default(), RecentMotion::default());
-        let input = TrackInput {
-            points_in_robot: &points,
-            segments_in_robot: &segments,
-            map: &map,
-            loose: &loose,
-            guess,
-            anchor: guess,
-            constant_velocity: None,
-            recent: &recent,
-            lost_streak: 0,
-        };
-        let (align, tracking) = (AlignParams::default(), TrackParams::default());
-        let config = TrackConfig {
-            align: &align,
-            tracking: &tracking,
-            starts: &MapperParams::default(),
-        };
-        let thinned = thin_points(&points, align.point_spacing_m);
-        let tracker = Tracker {
-            input: &input,
-            config: &config,
-            points: &thinned,
-        };
-        let current = tracker.run(&[], guess);
-        let seeds = corner_seeds(
-            &map,
-            &[],
-            &thinned,
-            &segments,
-            &guess,
-            Some(&current.map_from_robot),
-            &tracking,
-        );
-        let n = thinned.len() as f64;
-        let would_win: Vec<Pose2> = seeds
-            .iter()
-            .map(|c| tracker.run_near(c.map_from_robot))
-            .filter(|r| {
-                let k = r.inliers as f64;
-                k >= tracking.corner_win_ratio * current.inliers as f64 + 2.0 && k >= 0.5 * n
-            })
-            .map(|r| r.map_from_robot)
-            .collect();
-        let half_turn = would_win.iter().any(|p| {
-            let d = would_win[0].between(p);
-            d.translation().length() > 1.0 && d.theta_rad.abs() > 3.0
+        let tracking = TrackParams::default();
+        let scene = (&world[..], &map, truth, guess, 0);
+        with_tracker(AlignMethod::PointToSegment, scene, &tracking, |tracker| {
+            let current = tracker.run(&[], guess);
+            let seeds = corner_seeds(
+                &map,
+                &[],
+                tracker.points,
+                tracker.input.segments_in_robot,
+                &guess,
+                Some(&current.map_from_robot),
+                &tracking,
+            );
+            let n = tracker.points.len() as f64;
+            let would_win: Vec<Pose2> = seeds
+                .iter()
+                .map(|c| tracker.run_near(c.map_from_robot))
+                .filter(|r| {
+                    let k = r.inliers as f64;
+                    k >= tracking.corner_win_ratio * current.inliers as f64 + 2.0 && k >= 0.5 * n
+                })
+                .map(|r| r.map_from_robot)
+                .collect();
+            let half_turn = would_win.iter().any(|p| {
+                let d = would_win[0].between(p);
+                d.translation().length() > 1.0 && d.theta_rad.abs() > 3.0
+            });
+            assert!(half_turn, "{would_win:?}");
+            assert!(tracker.icp_from_corners(&current).is_none());
         });
-        assert!(half_turn, "{would_win:?}");
-        assert!(tracker.icp_from_corners(&current).is_none());
     }
 
     #[test]
