@@ -84,6 +84,59 @@ struct Block {
     bound: f32,
 }
 
+/// Where a search stops.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Until {
+    /// At the best pose: the search is exact.
+    Best,
+    /// At the first pose that reaches the score asked for (to know whether there is one).
+    First,
+}
+
+/// One window prepared for one set of points: its rotations and its top blocks, best first.
+struct Prepared {
+    rotations: Vec<Rotation>,
+    reach: i64,
+    blocks: Vec<Block>,
+    points: usize,
+}
+
+impl Prepared {
+    /// The search state over this window with `exclusions`.
+    fn context<'a>(
+        &'a self,
+        matcher: &'a CorrelativeMatcher,
+        window: &'a SearchWindow,
+        exclusions: &'a [Exclusion],
+    ) -> Search<'a> {
+        Search {
+            matcher,
+            rotations: &self.rotations,
+            window,
+            reach: self.reach,
+            exclusions,
+        }
+    }
+
+    /// The sum of raster values a mean score of `min_score` asks for.
+    fn floor(&self, min_score: f64) -> f32 {
+        (min_score * self.points as f64) as f32
+    }
+
+    /// The pose and mean score of a leaf found with its sum.
+    fn candidate(
+        &self,
+        matcher: &CorrelativeMatcher,
+        window: &SearchWindow,
+        (sum, b): (f32, Block),
+    ) -> Candidate {
+        Candidate {
+            map_from_robot: self.context(matcher, window, &[]).pose(b),
+            score: sum as f64 / self.points as f64,
+        }
+    }
+}
+
 impl CorrelativeMatcher {
     /// Prepares `raster` for searching windows of any size (cost: two passes over its cells
     /// for each of six levels).
@@ -102,28 +155,37 @@ impl CorrelativeMatcher {
         let (w, h) = raster.size();
         let pad = (1i64 << max_level) - 1;
         let (pw, ph) = (w as i64 + pad, h as i64 + pad);
-        let mut base = vec![0f32; (pw * ph) as usize];
+        let (wu, len) = (pw as usize, (pw * ph) as usize);
+        let mut base = vec![0f32; len];
         for (y, row) in raster.values().chunks(w.max(1)).enumerate() {
             let at = (y as i64 + pad) * pw + pad;
             base[at as usize..at as usize + row.len()].copy_from_slice(row);
         }
-        let mut levels = vec![base];
+        let mut levels = Vec::with_capacity(max_level as usize + 1);
+        levels.push(base);
         for level in 1..=max_level {
-            let half = 1i64 << (level - 1);
+            let half = 1usize << (level - 1);
             let prev = &levels[level as usize - 1];
-            // Along x, then along y, each a max of two blocks of the level below.
-            let mut both: Vec<f32> = prev
-                .chunks(pw as usize)
-                .flat_map(|row| {
-                    (0..row.len()).map(move |x| match row.get(x + half as usize) {
-                        Some(v) => row[x].max(*v),
-                        None => row[x],
-                    })
-                })
-                .collect();
-            let step = (half * pw) as usize;
-            for i in 0..both.len().saturating_sub(step) {
-                both[i] = both[i].max(both[i + step]);
+            // Along x, then along y, each a max of two blocks of the level below (plain
+            // loops over slices: the iterator chain it replaces cost three times as much).
+            let mut both = vec![0f32; len];
+            for (out, row) in both.chunks_exact_mut(wu).zip(prev.chunks_exact(wu)) {
+                let split = wu.saturating_sub(half);
+                for ((o, a), b) in out[..split].iter_mut().zip(&row[..split]).zip(&row[half..]) {
+                    *o = a.max(*b);
+                }
+                out[split..].copy_from_slice(&row[split..]);
+            }
+            // Along y in chunks of `half` rows: each chunk reads the next, not yet written.
+            let step = half * wu;
+            let mut start = 0;
+            while start + step < len {
+                let (done, rest) = both.split_at_mut(start + step);
+                let m = step.min(rest.len());
+                for (o, b) in done[start..start + m].iter_mut().zip(&rest[..m]) {
+                    *o = o.max(*b);
+                }
+                start += step;
             }
             levels.push(both);
         }
@@ -150,11 +212,76 @@ impl CorrelativeMatcher {
         min_score: f64,
         exclusions: &[Exclusion],
     ) -> Option<Candidate> {
-        let n = points_in_robot.len();
+        let prepared = self.prepare(points_in_robot, window)?;
+        let found = self.search(&prepared, window, min_score, exclusions, Until::Best, None);
+        found.map(|leaf| prepared.candidate(self, window, leaf))
+    }
+
+    /// The best pose of `window` for `points_in_robot` (robot frame) scoring at least
+    /// `min_score`, or else `seed` (a pose scored by the caller on the same raster), with a
+    /// rival: a pose more than `apart_m` or `apart_rad` from it (see [`Exclusion`]) scoring at
+    /// least `rival_above` times its score. With [`Until::Best`] the rival is the best such
+    /// pose; with [`Until::First`], the first one found, which only says that there is one
+    /// (cheaper: the search stops there, and the poses the search for the best passed over
+    /// on its way are checked first). `None` when there is neither a pose nor a seed.
+    #[allow(clippy::too_many_arguments)]
+    pub fn best_with_rival(
+        &self,
+        points_in_robot: &[Vec2],
+        window: &SearchWindow,
+        min_score: f64,
+        seed: Option<Candidate>,
+        rival_above: f64,
+        (apart_m, apart_rad): (f64, f64),
+        rival: Until,
+    ) -> Option<(Candidate, Option<Candidate>)> {
+        let Some(prepared) = self.prepare(points_in_robot, window) else {
+            return seed.map(|s| (s, None));
+        };
+        let mut passed = Vec::new();
+        let found = self.search(
+            &prepared,
+            window,
+            min_score,
+            &[],
+            Until::Best,
+            Some(&mut passed),
+        );
+        let best = found
+            .map(|leaf| prepared.candidate(self, window, leaf))
+            .or(seed)?;
+        let exclusion = [Exclusion {
+            center: best.map_from_robot,
+            radius_m: apart_m,
+            radius_rad: apart_rad,
+        }];
+        let rival_min = rival_above * best.score;
+        if rival == Until::First {
+            // The same test the rival search applies to each pose it reaches.
+            let floor = prepared.floor(rival_min);
+            let ctx = prepared.context(self, window, &exclusion);
+            if let Some(&leaf) = passed
+                .iter()
+                .find(|(sum, b)| *sum >= floor && !ctx.excluded(b, false))
+            {
+                return Some((best, Some(prepared.candidate(self, window, leaf))));
+            }
+        }
+        let rival = self
+            .search(&prepared, window, rival_min, &exclusion, rival, None)
+            .map(|leaf| prepared.candidate(self, window, leaf));
+        Some((best, rival))
+    }
+
+    /// The rotations of `window` for `points` and the top blocks of translations, best bound
+    /// first: where every search of that window for those points starts. `None` for no
+    /// points or an empty raster.
+    fn prepare(&self, points: &[Vec2], window: &SearchWindow) -> Option<Prepared> {
+        let n = points.len();
         if n == 0 || self.raster.size().0 == 0 {
             return None;
         }
-        let rotations = self.rotations(points_in_robot, window);
+        let rotations = self.rotations(points, window);
         let reach = self.translation_steps(window);
         let top = (self.levels.len() as u32 - 1).min(ceil_log2(2 * reach + 1));
         let mut blocks = Vec::new();
@@ -170,22 +297,36 @@ impl CorrelativeMatcher {
             }
         }
         blocks.sort_by(|a, b| b.bound.total_cmp(&a.bound));
-        let mut best: Option<(f32, Block)> = None;
-        let floor = (min_score * n as f64) as f32;
-        let ctx = Search {
-            matcher: self,
-            rotations: &rotations,
-            window,
+        Some(Prepared {
+            rotations,
             reach,
-            exclusions,
-        };
-        for b in blocks {
-            ctx.descend(b, floor, &mut best);
-        }
-        best.map(|(sum, b)| Candidate {
-            map_from_robot: ctx.pose(b),
-            score: sum as f64 / n as f64,
+            blocks,
+            points: n,
         })
+    }
+
+    /// Branch and bound from `prepared`'s top blocks: the best pose outside `exclusions`
+    /// scoring at least `min_score` (or the first found, [`Until::First`]), as its sum and
+    /// leaf block. `passed` collects the leaves that were the best so far before a better one.
+    fn search(
+        &self,
+        prepared: &Prepared,
+        window: &SearchWindow,
+        min_score: f64,
+        exclusions: &[Exclusion],
+        until: Until,
+        mut passed: Option<&mut Vec<(f32, Block)>>,
+    ) -> Option<(f32, Block)> {
+        let ctx = prepared.context(self, window, exclusions);
+        let floor = prepared.floor(min_score);
+        let mut best: Option<(f32, Block)> = None;
+        for b in &prepared.blocks {
+            if until == Until::First && best.is_some() {
+                break;
+            }
+            ctx.descend(*b, floor, until, &mut best, &mut passed);
+        }
+        best
     }
 
     /// Up to `max` best poses of `window`, each apart from the ones before by `apart_m` or
@@ -200,11 +341,17 @@ impl CorrelativeMatcher {
         apart_rad: f64,
     ) -> Vec<Candidate> {
         let mut found: Vec<Candidate> = Vec::new();
+        let Some(prepared) = self.prepare(points_in_robot, window) else {
+            return found;
+        };
         let mut exclusions = Vec::new();
         while found.len() < max {
-            let Some(c) = self.best(points_in_robot, window, min_score, &exclusions) else {
+            let Some(leaf) =
+                self.search(&prepared, window, min_score, &exclusions, Until::Best, None)
+            else {
                 break;
             };
+            let c = prepared.candidate(self, window, leaf);
             exclusions.push(Exclusion {
                 center: c.map_from_robot,
                 radius_m: apart_m,
@@ -337,8 +484,19 @@ struct Search<'a> {
 }
 
 impl Search<'_> {
-    /// Opens `b` while its bound beats the best so far (and `floor`).
-    fn descend(&self, b: Block, floor: f32, best: &mut Option<(f32, Block)>) {
+    /// Opens `b` while its bound beats the best so far (and `floor`); with [`Until::First`]
+    /// only until a pose is found. A best pose displaced by a better one goes to `passed`.
+    fn descend(
+        &self,
+        b: Block,
+        floor: f32,
+        until: Until,
+        best: &mut Option<(f32, Block)>,
+        passed: &mut Option<&mut Vec<(f32, Block)>>,
+    ) {
+        if until == Until::First && best.is_some() {
+            return;
+        }
         let to_beat = best.map_or(floor, |(s, _)| s);
         let beats = if best.is_some() {
             b.bound > to_beat
@@ -349,8 +507,11 @@ impl Search<'_> {
             return;
         }
         if b.level == 0 {
-            if !self.excluded(&b, false) {
-                *best = Some((b.bound, b));
+            if !self.excluded(&b, false)
+                && let Some(before) = best.replace((b.bound, b))
+                && let Some(passed) = passed
+            {
+                passed.push(before);
             }
             return;
         }
@@ -372,7 +533,7 @@ impl Search<'_> {
         let bound = |c: &Option<Block>| c.map_or(f32::NEG_INFINITY, |c| c.bound);
         children.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
         for c in children.iter().flatten() {
-            self.descend(*c, floor, best);
+            self.descend(*c, floor, until, best, passed);
         }
     }
 
@@ -508,6 +669,66 @@ mod tests {
         };
         let found = matcher.best(&points, &window, 0.5, &[]).unwrap();
         assert_near(&truth, &found);
+    }
+
+    #[test]
+    fn any_rival_is_found_exactly_when_the_best_rival_is() {
+        let (segs, pillar) = room();
+        let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
+        let points = scan_of(&segs, &pillar, Pose2::new(0.2, 0.1, 0.05));
+        let window = SearchWindow {
+            center: Pose2::IDENTITY,
+            half_xy_m: 1.0,
+            half_theta_rad: 0.8,
+        };
+        let apart = (0.5, 0.17);
+        let mut both_kinds = [false, false];
+        for rival_above in [0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 0.9, 0.99] {
+            let exact = matcher.best_with_rival(
+                &points,
+                &window,
+                0.0,
+                None,
+                rival_above,
+                apart,
+                Until::Best,
+            );
+            let any = matcher.best_with_rival(
+                &points,
+                &window,
+                0.0,
+                None,
+                rival_above,
+                apart,
+                Until::First,
+            );
+            let ((best, exact), (same, any)) = (exact.unwrap(), any.unwrap());
+            assert_eq!(
+                best, same,
+                "the best pose does not depend on the rival's search"
+            );
+            assert_eq!(exact.is_some(), any.is_some(), "above {rival_above}");
+            both_kinds[exact.is_some() as usize] = true;
+            if let (Some(e), Some(a)) = (exact, any) {
+                assert!(a.score >= rival_above * best.score && a.score <= e.score);
+                let d = best.map_from_robot.between(&a.map_from_robot);
+                assert!(d.translation().length() > apart.0 || d.theta_rad.abs() > apart.1);
+            }
+        }
+        assert_eq!(
+            both_kinds,
+            [true, true],
+            "some floors find a rival, some do not"
+        );
+        // A seed scoring above every pose of the window is the best, and has no rival here.
+        let seed = Candidate {
+            map_from_robot: Pose2::new(0.2, 0.1, 0.05),
+            score: 2.0,
+        };
+        let (best, rival) = matcher
+            .best_with_rival(&points, &window, 2.0, Some(seed), 0.95, apart, Until::First)
+            .unwrap();
+        assert_eq!((best, rival), (seed, None));
     }
 
     #[test]

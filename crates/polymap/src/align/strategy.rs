@@ -39,7 +39,7 @@ use super::track::{
     should_search, verdict, window_search,
 };
 use super::{
-    AlignMethod, AlignParams, AlignResult, SearchWindow, SegmentLookup, align_endpoints,
+    AlignMethod, AlignParams, AlignResult, SearchWindow, SegmentLookup, Until, align_endpoints,
     align_points, corner_seeds, fit_score, fit_score_above, map_bounds, rotation_search,
     score_sample, thin_points,
 };
@@ -232,8 +232,15 @@ impl Tracker<'_> {
         };
         let loose = input.loose.all();
         let seed = Some(result.map_from_robot);
-        let Some(found) = window_search(input.map, &loose, self.points, &window, seed, tracking)
-        else {
+        let Some(found) = window_search(
+            input.map,
+            &loose,
+            self.points,
+            &window,
+            seed,
+            Until::First,
+            tracking,
+        ) else {
             return (Some(result), None, false);
         };
         if found.best.map_from_robot == result.map_from_robot {
@@ -412,6 +419,7 @@ impl Tracker<'_> {
             self.points,
             &window,
             None,
+            Until::Best, // the rival is a second start
             self.config.tracking,
         )?;
         best_of(

@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
+use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow, Until};
 use super::raster::ScoreRaster;
 use super::{AlignResult, score_sample_n};
 use crate::check::{Checks, InvalidParam};
@@ -507,15 +507,18 @@ pub(super) fn search_raster(
 }
 
 /// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
-/// of the loose points near it that the map does not explain (map frame), with its rival;
-/// `None` when nothing scores. A `seed` pose (ICP's answer) is the score to beat: the search
-/// then only opens blocks that could beat it, and returns the seed when none does.
+/// of the loose points near it that the map does not explain (map frame), with its rival
+/// (the best one with [`Until::Best`]; any one with [`Until::First`], enough to tell an
+/// ambiguous match and cheaper); `None` when nothing scores. A `seed` pose (ICP's answer) is
+/// the score to beat: the search then only opens blocks that could beat it, and returns the
+/// seed when none does.
 pub fn window_search(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
     points_in_robot: &[Vec2],
     window: &SearchWindow,
     seed: Option<Pose2>,
+    rival: Until,
     params: &TrackParams,
 ) -> Option<WindowMatch> {
     let sample = search_sample(points_in_robot, params);
@@ -536,18 +539,16 @@ pub fn window_search(
     });
     let floor = seeded.map_or(MIN_SCORE, |c| c.score.max(MIN_SCORE));
     let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
-    let best = matcher.best(&sample, window, floor, &[]).or(seeded)?;
-    let exclusion = Exclusion {
-        center: best.map_from_robot,
-        radius_m: params.rival_apart_m,
-        radius_rad: params.rival_apart_deg.to_radians(),
-    };
-    let rival = matcher.best(
+    let apart = (params.rival_apart_m, params.rival_apart_deg.to_radians());
+    let (best, rival) = matcher.best_with_rival(
         &sample,
         window,
-        params.ambiguous_above * best.score,
-        &[exclusion],
-    );
+        floor,
+        seeded,
+        params.ambiguous_above,
+        apart,
+        rival,
+    )?;
     Some(WindowMatch { best, rival })
 }
 
