@@ -65,6 +65,7 @@ pub struct CorrelativeMatcher {
 }
 
 /// One rotation of the window: the points' cells at zero offset.
+#[derive(Debug, Clone)]
 struct Rotation {
     theta_rad: f64,
     cells: Vec<(i64, i64)>,
@@ -93,7 +94,20 @@ pub enum Until {
     First,
 }
 
+/// The best pose of a window search ([`CorrelativeMatcher::window_best`]), with what a search
+/// for its rival needs.
+#[derive(Debug, Clone)]
+pub struct WindowBest {
+    /// The best pose of the window, or the seed when no pose of the window beat it.
+    pub best: Candidate,
+    window: SearchWindow,
+    prepared: Option<Prepared>,
+    /// The leaves that were the best so far before a better one, with their sums.
+    passed: Vec<(f32, Block)>,
+}
+
 /// One window prepared for one set of points: its rotations and its top blocks, best first.
+#[derive(Debug, Clone)]
 struct Prepared {
     rotations: Vec<Rotation>,
     reach: i64,
@@ -218,25 +232,23 @@ impl CorrelativeMatcher {
     }
 
     /// The best pose of `window` for `points_in_robot` (robot frame) scoring at least
-    /// `min_score`, or else `seed` (a pose scored by the caller on the same raster), with a
-    /// rival: a pose more than `apart_m` or `apart_rad` from it (see [`Exclusion`]) scoring at
-    /// least `rival_above` times its score. With [`Until::Best`] the rival is the best such
-    /// pose; with [`Until::First`], the first one found, which only says that there is one
-    /// (cheaper: the search stops there, and the poses the search for the best passed over
-    /// on its way are checked first). `None` when there is neither a pose nor a seed.
-    #[allow(clippy::too_many_arguments)]
-    pub fn best_with_rival(
+    /// `min_score`, or else `seed` (a pose scored by the caller on the same raster), kept with
+    /// what [`CorrelativeMatcher::rival`] needs to search the same window again; `None` when
+    /// there is neither a pose nor a seed.
+    pub fn window_best(
         &self,
         points_in_robot: &[Vec2],
         window: &SearchWindow,
         min_score: f64,
         seed: Option<Candidate>,
-        rival_above: f64,
-        (apart_m, apart_rad): (f64, f64),
-        rival: Until,
-    ) -> Option<(Candidate, Option<Candidate>)> {
+    ) -> Option<WindowBest> {
         let Some(prepared) = self.prepare(points_in_robot, window) else {
-            return seed.map(|s| (s, None));
+            return seed.map(|best| WindowBest {
+                best,
+                window: *window,
+                prepared: None,
+                passed: Vec::new(),
+            });
         };
         let mut passed = Vec::new();
         let found = self.search(
@@ -250,27 +262,66 @@ impl CorrelativeMatcher {
         let best = found
             .map(|leaf| prepared.candidate(self, window, leaf))
             .or(seed)?;
+        Some(WindowBest {
+            best,
+            window: *window,
+            prepared: Some(prepared),
+            passed,
+        })
+    }
+
+    /// A rival of `found` (from [`CorrelativeMatcher::window_best`] on this matcher): a pose
+    /// of its window more than `apart_m` or `apart_rad` from its best (see [`Exclusion`])
+    /// scoring at least `rival_above` times the best's score. With [`Until::Best`] the best
+    /// such pose; with [`Until::First`], the first one found, which only says that there is
+    /// one (cheaper: the search stops there, and the poses the search for the best passed over
+    /// on its way are checked first).
+    pub fn rival(
+        &self,
+        found: &WindowBest,
+        rival_above: f64,
+        (apart_m, apart_rad): (f64, f64),
+        until: Until,
+    ) -> Option<Candidate> {
+        let prepared = found.prepared.as_ref()?;
+        let window = &found.window;
         let exclusion = [Exclusion {
-            center: best.map_from_robot,
+            center: found.best.map_from_robot,
             radius_m: apart_m,
             radius_rad: apart_rad,
         }];
-        let rival_min = rival_above * best.score;
-        if rival == Until::First {
-            // The same test the rival search applies to each pose it reaches.
+        let rival_min = rival_above * found.best.score;
+        if until == Until::First {
+            // The same test the rival's search applies to each pose it reaches.
             let floor = prepared.floor(rival_min);
             let ctx = prepared.context(self, window, &exclusion);
-            if let Some(&leaf) = passed
+            if let Some(&leaf) = found
+                .passed
                 .iter()
                 .find(|(sum, b)| *sum >= floor && !ctx.excluded(b, false))
             {
-                return Some((best, Some(prepared.candidate(self, window, leaf))));
+                return Some(prepared.candidate(self, window, leaf));
             }
         }
-        let rival = self
-            .search(&prepared, window, rival_min, &exclusion, rival, None)
-            .map(|leaf| prepared.candidate(self, window, leaf));
-        Some((best, rival))
+        self.search(prepared, window, rival_min, &exclusion, until, None)
+            .map(|leaf| prepared.candidate(self, window, leaf))
+    }
+
+    /// [`CorrelativeMatcher::window_best`] and its [`CorrelativeMatcher::rival`] at once.
+    #[allow(clippy::too_many_arguments)]
+    pub fn best_with_rival(
+        &self,
+        points_in_robot: &[Vec2],
+        window: &SearchWindow,
+        min_score: f64,
+        seed: Option<Candidate>,
+        rival_above: f64,
+        apart: (f64, f64),
+        until: Until,
+    ) -> Option<(Candidate, Option<Candidate>)> {
+        let found = self.window_best(points_in_robot, window, min_score, seed)?;
+        let rival = self.rival(&found, rival_above, apart, until);
+        Some((found.best, rival))
     }
 
     /// The rotations of `window` for `points` and the top blocks of translations, best bound

@@ -232,15 +232,8 @@ impl Tracker<'_> {
         };
         let loose = input.loose.all();
         let seed = Some(result.map_from_robot);
-        let Some(found) = window_search(
-            input.map,
-            &loose,
-            self.points,
-            &window,
-            seed,
-            Until::First,
-            tracking,
-        ) else {
+        let Some(found) = window_search(input.map, &loose, self.points, &window, seed, tracking)
+        else {
             return (Some(result), None, false);
         };
         if found.best.map_from_robot == result.map_from_robot {
@@ -419,12 +412,11 @@ impl Tracker<'_> {
             self.points,
             &window,
             None,
-            Until::Best, // the rival is a second start
             self.config.tracking,
         )?;
         best_of(
             std::iter::once(found.best)
-                .chain(found.rival)
+                .chain(found.rival(Until::Best)) // a second start
                 .map(|c| self.run(near, c.map_from_robot)),
         )
     }

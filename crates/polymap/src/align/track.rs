@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow, Until};
+use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow, Until, WindowBest};
 use super::raster::ScoreRaster;
 use super::{AlignResult, score_sample_n};
 use crate::check::{Checks, InvalidParam};
@@ -440,20 +440,33 @@ pub fn search_window(
 /// A window search's best pose must explain at least this mean raster value per point.
 const MIN_SCORE: f64 = 0.05;
 
-/// The outcome of a window search: the best pose, and the best one apart from it.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// The outcome of a window search: the best pose, and on demand a rival apart from it (only
+/// a scan whose verdict is otherwise `ok` needs to know whether its match is ambiguous, so the
+/// search for a rival runs only when asked).
+#[derive(Debug, Clone)]
 pub struct WindowMatch {
     /// The best pose of the window.
     pub best: Candidate,
-    /// The best pose at least `rival_apart_m` or `rival_apart_deg` from `best`, if one scores
-    /// at least `ambiguous_above` of its score.
-    pub rival: Option<Candidate>,
+    matcher: CorrelativeMatcher,
+    found: WindowBest,
+    /// Share of the best's score a rival must reach (`tracking.ambiguous_above`).
+    rival_above: f64,
+    /// How far apart a rival is (`tracking.rival_apart_m`, `rival_apart_deg` in radians).
+    apart: (f64, f64),
 }
 
 impl WindowMatch {
-    /// Whether a distinct pose explains the scan about as well as the best.
+    /// Whether a distinct pose (at least `rival_apart_m` or `rival_apart_deg` from the best)
+    /// scores at least `ambiguous_above` of the best's score.
     pub fn ambiguous(&self) -> bool {
-        self.rival.is_some()
+        self.rival(Until::First).is_some()
+    }
+
+    /// A distinct pose scoring at least `ambiguous_above` of the best's score: the best such
+    /// pose with [`Until::Best`], any with [`Until::First`] (cheaper).
+    pub fn rival(&self, until: Until) -> Option<Candidate> {
+        self.matcher
+            .rival(&self.found, self.rival_above, self.apart, until)
     }
 }
 
@@ -507,18 +520,16 @@ pub(super) fn search_raster(
 }
 
 /// The best pose of `window` for the scan's points (robot frame) on a raster of the map and
-/// of the loose points near it that the map does not explain (map frame), with its rival
-/// (the best one with [`Until::Best`]; any one with [`Until::First`], enough to tell an
-/// ambiguous match and cheaper); `None` when nothing scores. A `seed` pose (ICP's answer) is
-/// the score to beat: the search then only opens blocks that could beat it, and returns the
-/// seed when none does.
+/// of the loose points near it that the map does not explain (map frame), and its rival on
+/// demand ([`WindowMatch::rival`]); `None` when nothing scores. A `seed` pose (ICP's answer)
+/// is the score to beat: the search then only opens blocks that could beat it, and returns
+/// the seed when none does.
 pub fn window_search(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
     points_in_robot: &[Vec2],
     window: &SearchWindow,
     seed: Option<Pose2>,
-    rival: Until,
     params: &TrackParams,
 ) -> Option<WindowMatch> {
     let sample = search_sample(points_in_robot, params);
@@ -539,17 +550,14 @@ pub fn window_search(
     });
     let floor = seeded.map_or(MIN_SCORE, |c| c.score.max(MIN_SCORE));
     let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
-    let apart = (params.rival_apart_m, params.rival_apart_deg.to_radians());
-    let (best, rival) = matcher.best_with_rival(
-        &sample,
-        window,
-        floor,
-        seeded,
-        params.ambiguous_above,
-        apart,
-        rival,
-    )?;
-    Some(WindowMatch { best, rival })
+    let found = matcher.window_best(&sample, window, floor, seeded)?;
+    Some(WindowMatch {
+        best: found.best,
+        matcher,
+        found,
+        rival_above: params.ambiguous_above,
+        apart: (params.rival_apart_m, params.rival_apart_deg.to_radians()),
+    })
 }
 
 /// The verdict on a scan from its final alignment.
