@@ -38,7 +38,8 @@ pub struct TrackParams {
     pub max_window_m: f64,
     /// Half-width of the smallest rotation window, degrees.
     pub min_window_deg: f64,
-    /// Half-width of the largest rotation window while tracking, degrees.
+    /// Half-width of the largest rotation window while tracking, degrees; with the odometry
+    /// prior also how far a corner hypothesis may turn the scan from the guess.
     pub max_window_deg: f64,
     /// The translation window's half-width grows by this many times the predicted step.
     pub window_per_step: f64,
@@ -108,7 +109,8 @@ pub struct TrackParams {
     pub loose_point_spacing_m: f64,
     /// When the final pose is still `lost` or a `poor_fit` (the motion went beyond the window
     /// search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
-    /// (see [`crate::align::corner_seeds`]).
+    /// (see [`crate::align::corner_seeds`]); with the odometry prior turned at most
+    /// `max_window_deg` from its guess, otherwise any turn.
     pub corner_hypotheses: bool,
     /// Only corner hypotheses within this distance of the prediction count, metres (the map
     /// of a building repeats its corners farther away).
