@@ -31,6 +31,7 @@ const SCAN_CORNER_SEGMENTS: usize = 30;
 /// `GlobalParams::max_segments` longest of the map where a scan corner can land from a pose in
 /// reach: the hypotheses stay bounded whatever the map's size (a far scan corner widens that
 /// box, and in a large map its short walls may then be left out).
+#[allow(clippy::too_many_arguments)] // the scan, the map, and where to look: all distinct
 pub fn corner_seeds(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
