@@ -1,7 +1,7 @@
 //! Pose hypotheses for a scan that moved beyond the window search (issue 10, large motions):
 //! the scan's corners (pairs of its non-parallel segments that meet, [`corners`]) matched to
 //! the corners of the map near the prediction, each match one rigid pose ([`corner_poses`](crate::align::corner_poses):
-//! the paper's own vocabulary of segments), turned up to a bound the caller sets, verified by the search raster's
+//! the paper's own vocabulary of segments), any rotation, verified by the search raster's
 //! score. The window search is exact but only within its window (at most ±1 m and ±90° while
 //! tracking); a corner seen in both the scan and the map gives the true pose wherever it is.
 
@@ -9,7 +9,7 @@ use super::correlative::Candidate;
 use super::pair_search::{GlobalParams, best_distinct, hypotheses, raster_score};
 use super::pairs::corners;
 use super::track::{TrackParams, search_raster, search_sample};
-use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
+use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
 
 /// A scan's corners come from at most this many of its longest segments (a bound on the
@@ -21,8 +21,8 @@ const SCAN_CORNER_SEGMENTS: usize = 30;
 /// frame) on a corner of the map, with the robot within `corner_reach_m` of `prediction`,
 /// scored like the window search (the mean search-raster value of the scan's points,
 /// `points_in_robot`, on the map's segments and the loose points it leaves unexplained, map
-/// frame). Only poses scoring above `beat` (ICP's pose) and turned at most `max_turn_rad`
-/// from `prediction` are kept. Empty when the scan or the map near has no corner.
+/// frame). Only poses scoring above `beat` (ICP's pose) are kept. Empty when the scan or the
+/// map near has no corner.
 ///
 /// Corners are formed from segments at least `corner_min_segment_m` long, at least 30° from
 /// parallel, whose lines cross within 1 m of both, and matched when their angles agree within
@@ -31,7 +31,6 @@ const SCAN_CORNER_SEGMENTS: usize = 30;
 /// `GlobalParams::max_segments` longest of the map where a scan corner can land from a pose in
 /// reach: the hypotheses stay bounded whatever the map's size (a far scan corner widens that
 /// box, and in a large map its short walls may then be left out).
-#[allow(clippy::too_many_arguments)] // the scan, the map, and where to look: all distinct
 pub fn corner_seeds(
     map: &GlobalMap,
     loose_points_in_map: &[Vec2],
@@ -39,7 +38,6 @@ pub fn corner_seeds(
     segments_in_robot: &[Segment],
     prediction: &Pose2,
     beat: Option<&Pose2>,
-    max_turn_rad: f64,
     params: &TrackParams,
 ) -> Vec<Candidate> {
     let corner = GlobalParams::default();
@@ -78,7 +76,6 @@ pub fn corner_seeds(
     let poses: Vec<Pose2> = hypotheses(&map_corners, &scan_corners, &corner)
         .into_iter()
         .filter(|p| p.translation().distance(center) <= params.corner_reach_m)
-        .filter(|p| normalize_angle_rad(p.theta_rad - prediction.theta_rad).abs() <= max_turn_rad)
         .collect();
     if poses.is_empty() {
         return Vec::new();
@@ -109,7 +106,6 @@ pub fn corner_seeds(
 mod tests {
     use super::*;
     use crate::testutil::{cast_360, map_of, room};
-    use std::f64::consts::PI;
 
     #[test]
     fn a_far_turned_scan_is_found_among_the_corner_seeds() {
@@ -132,7 +128,6 @@ mod tests {
             &scan_segments,
             &prediction,
             Some(&prediction),
-            PI,
             &params,
         );
         assert!(!seeds.is_empty() && seeds.len() <= params.corner_seeds);
@@ -150,50 +145,13 @@ mod tests {
             })
         };
         let beyond = Pose2::new(1.3, 0.2, 0.0);
-        let seeds = corner_seeds(
-            &map,
-            &[],
-            &points,
-            &scan_segments,
-            &beyond,
-            None,
-            PI,
-            &params,
-        );
+        let seeds = corner_seeds(&map, &[], &points, &scan_segments, &beyond, None, &params);
         assert!(!near_truth(&seeds), "{seeds:?}");
         let farther = TrackParams {
             corner_reach_m: 4.0,
             ..params.clone()
         };
-        let seeds = corner_seeds(
-            &map,
-            &[],
-            &points,
-            &scan_segments,
-            &beyond,
-            None,
-            PI,
-            &farther,
-        );
+        let seeds = corner_seeds(&map, &[], &points, &scan_segments, &beyond, None, &farther);
         assert!(near_truth(&seeds), "{seeds:?}");
-        // Within reach but turned beyond the bound: not offered, and no seed turns more.
-        let bound = 60f64.to_radians();
-        let seeds = corner_seeds(
-            &map,
-            &[],
-            &points,
-            &scan_segments,
-            &beyond,
-            None,
-            bound,
-            &farther,
-        );
-        assert!(!near_truth(&seeds), "{seeds:?}");
-        assert!(
-            seeds
-                .iter()
-                .all(|c| c.map_from_robot.theta_rad.abs() <= bound),
-            "{seeds:?}"
-        );
     }
 }

@@ -28,7 +28,9 @@
 //!    ([`corner_seeds`]), scored above ICP's pose on the search raster; the best replaces
 //!    ICP's pose with `tracking.corner_win_ratio` times its inliers (plus two) when at least
 //!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
-//!    from another hypothesis has `tracking.corner_rival_below` of its inliers.
+//!    from another hypothesis has `tracking.corner_rival_below` of its inliers; with the
+//!    odometry prior only a pose turned at most `tracking.max_window_deg` from the odometry
+//!    guess may win (any may veto).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]).
@@ -43,7 +45,7 @@ use super::{
     align_points, corner_seeds, fit_score, fit_score_above, map_bounds, rotation_search,
     score_sample, thin_points,
 };
-use crate::geometry::{Pose2, Segment, Vec2};
+use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
 use crate::motion::{MapperParams, MotionPrior};
 
@@ -131,7 +133,7 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     (result, tracking)
 }
 
-/// How far a corner hypothesis may turn the scan from the guess: with the odometry prior, as
+/// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
 /// far as the window search may while tracking (`tracking.max_window_deg`): its guess carries
 /// the turn, and a bad odometry turn is off by tens of degrees, not half a turn; a corridor's
 /// corners fit a scan turned half round nearly as well as the truth (Intel with odometry,
@@ -285,14 +287,18 @@ impl Tracker<'_> {
             input.segments_in_robot,
             &input.guess,
             Some(&current.map_from_robot),
-            corner_turn_rad(odometry, tracking),
             tracking,
         );
         let all: Vec<AlignResult> = seeds
             .iter()
             .map(|c| self.run_near(c.map_from_robot))
             .collect();
-        let best = best_of(all.iter().copied())?;
+        // Only a pose within the turn bound may win; any pose may veto it as a rival.
+        let max_turn = corner_turn_rad(odometry, tracking);
+        let turned = |r: &AlignResult| {
+            normalize_angle_rad(r.map_from_robot.theta_rad - input.guess.theta_rad).abs()
+        };
+        let best = best_of(all.iter().copied().filter(|r| turned(r) <= max_turn))?;
         // A pose away from the prediction needs more evidence than one near it: half again
         // the inliers, a fit that would need no search, and no distinct pose nearly as good
         // (a building of alike rooms fits a scan turned by a right angle almost as well).
@@ -640,7 +646,6 @@ mod tests {
                 tracker.input.segments_in_robot,
                 &guess,
                 Some(&current.map_from_robot),
-                std::f64::consts::PI,
                 &tracking,
             );
             let n = tracker.points.len() as f64;
@@ -660,6 +665,52 @@ mod tests {
             assert!(half_turn, "{would_win:?}");
             assert!(tracker.icp_from_corners(&current).is_none());
         });
+    }
+
+    #[test]
+    fn with_odometry_a_corner_pose_turned_beyond_the_bound_does_not_win() {
+        // The scene of `a_motion_beyond_the_window_is_found_by_corner_hypotheses`: the truth
+        // is 70° from the guess, which wins without odometry; with the odometry prior and a
+        // 60° bound it may not.
+        let world = [
+            seg(0.0, 0.0, 8.0, 0.0),
+            seg(8.0, 0.0, 9.0, 5.0),
+            seg(9.0, 5.0, 3.0, 7.0),
+            seg(3.0, 7.0, -1.0, 4.0),
+            seg(-1.0, 4.0, 0.0, 0.0),
+            seg(5.0, 2.0, 6.0, 2.5),
+            seg(6.0, 2.5, 5.5, 3.5),
+        ];
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
+        let guess = Pose2::new(4.0, 3.0, 0.0);
+        let bound = TrackParams {
+            max_window_deg: 60.0,
+            ..TrackParams::default()
+        };
+        let scene = (&world[..], &map, truth, guess, 0);
+        let odometry = MapperParams {
+            motion_prior: MotionPrior::Odometry,
+            ..MapperParams::default()
+        };
+        let corner_with = |starts: &MapperParams, tracking: &TrackParams| {
+            with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
+                let config = TrackConfig {
+                    starts,
+                    ..*t.config
+                };
+                let tracker = Tracker {
+                    config: &config,
+                    ..*t
+                };
+                let current = tracker.run(&[], guess);
+                tracker.icp_from_corners(&current).map(|r| r.map_from_robot)
+            })
+        };
+        let near = |p: Option<Pose2>| p.is_some_and(|p| truth.between(&p).theta_rad.abs() < 0.05);
+        assert!(near(corner_with(&MapperParams::default(), &bound)));
+        assert!(near(corner_with(&odometry, &TrackParams::default())));
+        assert!(!near(corner_with(&odometry, &bound)));
     }
 
     #[test]

@@ -458,7 +458,7 @@ pub struct WindowMatch {
 }
 
 impl WindowMatch {
-    /// Whether a distinct pose (at least `rival_apart_m` or `rival_apart_deg` from the best)
+    /// Whether a distinct pose (more than `rival_apart_m` or `rival_apart_deg` from the best)
     /// scores at least `ambiguous_above` of the best's score.
     pub fn ambiguous(&self) -> bool {
         self.rival(Until::First).is_some()
