@@ -307,23 +307,6 @@ impl CorrelativeMatcher {
             .map(|leaf| prepared.candidate(self, window, leaf))
     }
 
-    /// [`CorrelativeMatcher::window_best`] and its [`CorrelativeMatcher::rival`] at once.
-    #[allow(clippy::too_many_arguments)]
-    pub fn best_with_rival(
-        &self,
-        points_in_robot: &[Vec2],
-        window: &SearchWindow,
-        min_score: f64,
-        seed: Option<Candidate>,
-        rival_above: f64,
-        apart: (f64, f64),
-        until: Until,
-    ) -> Option<(Candidate, Option<Candidate>)> {
-        let found = self.window_best(points_in_robot, window, min_score, seed)?;
-        let rival = self.rival(&found, rival_above, apart, until);
-        Some((found.best, rival))
-    }
-
     /// The rotations of `window` for `points` and the top blocks of translations, best bound
     /// first: where every search of that window for those points starts. `None` for no
     /// points or an empty raster.
@@ -735,24 +718,12 @@ mod tests {
         let apart = (0.5, 0.17);
         let mut both_kinds = [false, false];
         for rival_above in [0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 0.9, 0.99] {
-            let exact = matcher.best_with_rival(
-                &points,
-                &window,
-                0.0,
-                None,
-                rival_above,
-                apart,
-                Until::Best,
-            );
-            let any = matcher.best_with_rival(
-                &points,
-                &window,
-                0.0,
-                None,
-                rival_above,
-                apart,
-                Until::First,
-            );
+            let rival_of = |until| {
+                let found = matcher.window_best(&points, &window, 0.0, None).unwrap();
+                let rival = matcher.rival(&found, rival_above, apart, until);
+                Some((found.best, rival))
+            };
+            let (exact, any) = (rival_of(Until::Best), rival_of(Until::First));
             let ((best, exact), (same, any)) = (exact.unwrap(), any.unwrap());
             assert_eq!(
                 best, same,
@@ -777,10 +748,11 @@ mod tests {
             map_from_robot: Pose2::new(0.2, 0.1, 0.05),
             score: 2.0,
         };
-        let (best, rival) = matcher
-            .best_with_rival(&points, &window, 2.0, Some(seed), 0.95, apart, Until::First)
+        let found = matcher
+            .window_best(&points, &window, 2.0, Some(seed))
             .unwrap();
-        assert_eq!((best, rival), (seed, None));
+        let rival = matcher.rival(&found, 0.95, apart, Until::First);
+        assert_eq!((found.best, rival), (seed, None));
     }
 
     #[test]
