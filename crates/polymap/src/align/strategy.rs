@@ -231,15 +231,18 @@ impl Tracker<'_> {
         };
         let tracking = self.config.tracking;
         let (guess, anchor, lost_streak) = (input.guess, input.anchor, input.lost_streak);
-        if !should_search(
-            &guess,
-            &anchor,
-            input.recent,
-            Some(&result),
-            self.points.len(),
-            lost_streak,
-            tracking,
-        ) {
+        let unobserved = self.unobserved(&result);
+        if !unobserved
+            && !should_search(
+                &guess,
+                &anchor,
+                input.recent,
+                Some(&result),
+                self.points.len(),
+                lost_streak,
+                tracking,
+            )
+        {
             return (Some(result), None, false);
         }
         let every = tracking.relocalize_every_lost;
@@ -264,11 +267,25 @@ impl Tracker<'_> {
         // The search's pose must fit clearly better: along a corridor, or with odometry's good
         // guess, a pose that fits a few more points by coincidence is no evidence.
         let margin = tracking.search_win_margin;
-        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 {
+        // Where ICP had no evidence along a direction, evidence wins over none.
+        let observed = searched.weak_directions == 0
+            && searched.translation_information.weakest >= tracking.weak_below_information;
+        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0
+            || (unobserved && observed && searched.inliers >= result.inliers)
+        {
             (Some(searched), Some(found), true)
         } else {
             (Some(result), Some(found), false)
         }
+    }
+
+    /// Whether `result` is ICP's pose put on the anchor along a direction it could not
+    /// observe, without the odometry prior (whose guess is evidence of the motion) and with
+    /// `tracking.search_unobserved`.
+    fn unobserved(&self, result: &AlignResult) -> bool {
+        self.config.tracking.search_unobserved
+            && self.config.starts.motion_prior != MotionPrior::Odometry
+            && result.weak_directions > 0
     }
 
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
@@ -708,6 +725,66 @@ mod tests {
         assert!(near(corner_with(&MapperParams::default(), &bound)));
         assert!(near(corner_with(&odometry, &TrackParams::default())));
         assert!(!near(corner_with(&odometry, &bound)));
+    }
+
+    /// A corridor 2 m wide whose only features along it are two door frames 0.4 m deep, 3 m
+    /// ahead of the origin and 3 m behind it.
+    fn framed_corridor() -> Vec<Segment> {
+        vec![
+            seg(-30.0, -1.0, 30.0, -1.0),
+            seg(-30.0, 1.0, 30.0, 1.0),
+            seg(3.0, 1.0, 3.0, 0.6),
+            seg(-3.0, -1.0, -3.0, -0.6),
+        ]
+    }
+
+    #[test]
+    fn a_step_along_a_corridor_is_taken_from_the_search_where_icp_sees_none() {
+        // The robot moved 0.7 m along the corridor; the guess says no motion (the constant
+        // velocity after a stop). From the guess the frames lie 0.7 m off their map walls, out
+        // of reach of ICP's robust weights, so along the corridor ICP has no information and
+        // stays at the anchor; the search, whose window reaches the truth, finds the frames.
+        let world = framed_corridor();
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(0.7, 0.0, 0.0);
+        let guess = Pose2::IDENTITY;
+        let wide = |search_unobserved| TrackParams {
+            min_window_m: 1.0,
+            search_unobserved,
+            ..TrackParams::default()
+        };
+        let (stuck, verdict) = track_in(&world, &map, truth, guess, &wide(false));
+        let stuck = stuck.expect("a pose");
+        assert!(stuck.map_from_robot.x_m.abs() < 0.05, "{stuck:?}");
+        assert_eq!(
+            (verdict.searched, verdict.reason),
+            (false, Reason::Degenerate)
+        );
+        let tracked = track_in(&world, &map, truth, guess, &wide(true));
+        assert_near(&truth, &tracked);
+        // The frames are a few of the search's points: a pose 0.5 m along scores nearly as
+        // well, so the scan stays `weak`, now for an ambiguous search.
+        assert!(tracked.1.search_won, "{:?}", tracked.1);
+        assert_eq!(tracked.1.reason, Reason::Ambiguous, "{:?}", tracked.1);
+        // With the odometry prior the guess is evidence of the motion: no search.
+        let odometry = MapperParams {
+            motion_prior: MotionPrior::Odometry,
+            ..MapperParams::default()
+        };
+        let scene = (&world[..], &map, truth, guess, 0);
+        with_tracker(AlignMethod::PointToSegment, scene, &wide(true), |t| {
+            let config = TrackConfig {
+                starts: &odometry,
+                ..*t.config
+            };
+            let tracker = Tracker {
+                config: &config,
+                ..*t
+            };
+            let (result, found, won) = tracker.icp();
+            assert!(found.is_none() && !won);
+            assert!(result.is_some_and(|r| r.map_from_robot.x_m.abs() < 0.05));
+        });
     }
 
     #[test]

@@ -88,6 +88,13 @@ pub struct TrackParams {
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
+    /// Without the odometry prior, a scan whose ICP pose is unobservable along some direction
+    /// (put on the anchor, "no motion", for want of evidence) is searched whatever the
+    /// predicted motion, and the search's pose wins when ICP from it observes every direction
+    /// (information at least `weak_below_information`) with at least as many inliers: a
+    /// corridor's far end, a door frame or a pillar out of ICP's basin are the only evidence
+    /// of the step along it, and the margin above is no test of evidence against none.
+    pub search_unobserved: bool,
     /// With the odometry prior, ICP also starts from the constant-velocity guess when it is
     /// farther than this from the odometry guess, metres...
     pub odometry_check_m: f64,
@@ -158,6 +165,7 @@ impl Default for TrackParams {
             weak_below_inlier_ratio: 0.6,
             weak_below_information: 5.0,
             search_win_margin: 0.1,
+            search_unobserved: true,
             merge_doubtful_scans: true,
             odometry_check_m: 0.3,
             odometry_check_deg: 15.0,
