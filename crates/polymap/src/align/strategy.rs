@@ -20,7 +20,10 @@
 //! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
 //!    [`search_window`], or the whole map every `tracking.relocalize_every_lost` scans lost in
 //!    a row; ICP from its best pose replaces ICP from the starts only with
-//!    `tracking.search_win_margin` more inliers (plus two).
+//!    `tracking.search_win_margin` more inliers (plus two). Without odometry, a pose ICP put
+//!    on the anchor along a direction it could not observe is searched too, and the search's
+//!    pose wins when ICP from it observes every direction with at least as many inliers
+//!    (`tracking.search_unobserved`: evidence against none).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`
 //!    (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
