@@ -91,6 +91,14 @@ pub struct TrackConfig<'a> {
     pub starts: &'a MapperParams,
 }
 
+/// With `tracking.search_unobserved`, the search's pose may replace a pose ICP could not
+/// observe along an axis only when it lies within this distance of that pose across the
+/// axis, metres (ICP observed that direction: the pose moves along the corridor, not across)...
+pub const UNOBSERVED_ACROSS_M: f64 = 0.1;
+
+/// ...and is turned from it by at most this, degrees (the walls observed the rotation).
+pub const UNOBSERVED_TURN_DEG: f64 = 3.0;
+
 /// The recovery searches positions within this distance of the anchor (each axis), metres.
 pub const RECOVER_TRANSLATION_M: f64 = 1.0;
 
@@ -235,7 +243,7 @@ impl Tracker<'_> {
         let tracking = self.config.tracking;
         let (guess, anchor, lost_streak) = (input.guess, input.anchor, input.lost_streak);
         let unobserved = self.unobserved(&result);
-        if !unobserved
+        if unobserved.is_none()
             && !should_search(
                 &guess,
                 &anchor,
@@ -271,24 +279,38 @@ impl Tracker<'_> {
         // guess, a pose that fits a few more points by coincidence is no evidence.
         let margin = tracking.search_win_margin;
         // Where ICP had no evidence along a direction, evidence wins over none.
-        let observed = searched.weak_directions == 0
-            && searched.translation_information.weakest >= tracking.weak_below_information;
-        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0
-            || (unobserved && observed && searched.inliers >= result.inliers)
-        {
+        // ICP from the search's pose must observe every direction, agree with ICP's pose in
+        // the directions ICP did observe (across the axis, and the rotation), and fit as many
+        // points.
+        let evidence = unobserved.is_some_and(|axis| {
+            let moved = searched.map_from_robot.translation() - result.map_from_robot.translation();
+            let turned = searched.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
+            searched.weak_directions == 0
+                && searched.translation_information.weakest >= tracking.weak_below_information
+                && moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
+                && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians()
+                && searched.inliers >= result.inliers
+        });
+        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 || evidence {
             (Some(searched), Some(found), true)
         } else {
             (Some(result), Some(found), false)
         }
     }
 
-    /// Whether `result` is ICP's pose put on the anchor along a direction it could not
-    /// observe, without the odometry prior (whose guess is evidence of the motion) and with
-    /// `tracking.search_unobserved`.
-    fn unobserved(&self, result: &AlignResult) -> bool {
-        self.config.tracking.search_unobserved
+    /// The map-frame axis (unit vector) along which ICP put `result` on the anchor for want of
+    /// information, when the rule of `tracking.search_unobserved` applies: tracking (nothing
+    /// lost before), the window search on, and no odometry prior (whose guess is evidence of
+    /// the motion). `None` when every translation was observed, or only the rotation was not.
+    fn unobserved(&self, result: &AlignResult) -> Option<Vec2> {
+        let tracking = self.config.tracking;
+        let on = tracking.search_unobserved
+            && tracking.window_search
+            && self.input.lost_streak == 0
             && self.config.starts.motion_prior != MotionPrior::Odometry
-            && result.weak_directions > 0
+            && result.weak_directions > 0;
+        let axis = result.weak_direction_deg.filter(|_| on)?.to_radians();
+        Some(Vec2::new(axis.cos(), axis.sin()))
     }
 
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
@@ -769,6 +791,20 @@ mod tests {
         // well, so the scan stays `weak`, now for an ambiguous search.
         assert!(tracked.1.search_won, "{:?}", tracked.1);
         assert_eq!(tracked.1.reason, Reason::Ambiguous, "{:?}", tracked.1);
+        // The search's pose must itself be well observed (here: more information than the
+        // frames give), and the search must be on.
+        let strict = TrackParams {
+            weak_below_information: 1e3,
+            ..wide(true)
+        };
+        let off = TrackParams {
+            window_search: false,
+            ..wide(true)
+        };
+        for tracking in [strict, off] {
+            let (result, _) = track_in(&world, &map, truth, guess, &tracking);
+            assert!(result.is_some_and(|r| r.map_from_robot.x_m.abs() < 0.05));
+        }
         // With the odometry prior the guess is evidence of the motion: no search.
         let odometry = MapperParams {
             motion_prior: MotionPrior::Odometry,

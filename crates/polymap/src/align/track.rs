@@ -88,12 +88,16 @@ pub struct TrackParams {
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
-    /// Without the odometry prior, a scan whose ICP pose is unobservable along some direction
-    /// (put on the anchor, "no motion", for want of evidence) is searched whatever the
-    /// predicted motion, and the search's pose wins when ICP from it observes every direction
-    /// (information at least `weak_below_information`) with at least as many inliers: a
-    /// corridor's far end, a door frame or a pillar out of ICP's basin are the only evidence
-    /// of the step along it, and the margin above is no test of evidence against none.
+    /// While tracking (no scan lost just before) with `window_search` on and without the
+    /// odometry prior: a scan whose ICP pose was put on the anchor along an axis ICP could not
+    /// observe (no evidence of the motion along it) is searched whatever the predicted motion,
+    /// in the usual window, and the search's pose wins without `search_win_margin` when ICP
+    /// from it observes every direction (translation information at least
+    /// `weak_below_information`, the same key as the verdict's), lies within
+    /// [`crate::align::UNOBSERVED_ACROSS_M`] across the axis and
+    /// [`crate::align::UNOBSERVED_TURN_DEG`] of ICP's pose, and fits at least as many
+    /// points: a corridor's far frames out of ICP's robust reach are the only evidence of a
+    /// step along it, and the margin is no test of evidence against none.
     pub search_unobserved: bool,
     /// With the odometry prior, ICP also starts from the constant-velocity guess when it is
     /// farther than this from the odometry guess, metres...
