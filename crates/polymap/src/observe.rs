@@ -14,7 +14,8 @@
 //! through it when its crossings cover at least `through_cover` of the segment's length, a ray
 //! covering at most `max_ray_cover_m` (so a wall whose tip overshoots a doorway, or a long wall
 //! with a door seen from afar, is not contradicted by the few rays through the doorway). The
-//! counts go into the segment's [`Observations`], kept by [`GlobalMap`] beside the segments.
+//! counts go into the segment's [`Observations`](crate::map::Observations), kept by
+//! [`GlobalMap`] beside the segments.
 //! Only scans whose pose moved `min_travel_m` or turned `min_turn_deg` since the last observing
 //! scan look: a robot standing still sees the same thing again, which is no new evidence.
 //!

@@ -27,7 +27,7 @@ const SCAN_CORNER_SEGMENTS: usize = 30;
 /// Corners are formed from segments at least `corner_min_segment_m` long, at least 30° from
 /// parallel, whose lines cross within 1 m of both, and matched when their angles agree within
 /// 4° ([`GlobalParams`]' defaults, as for merging maps). At most the
-/// [`SCAN_CORNER_SEGMENTS`] longest segments of the scan take part, and the
+/// `SCAN_CORNER_SEGMENTS` (30) longest segments of the scan take part, and the
 /// `GlobalParams::max_segments` longest of the map where a scan corner can land from a pose in
 /// reach: the hypotheses stay bounded whatever the map's size (a far scan corner widens that
 /// box, and in a large map its short walls may then be left out).
