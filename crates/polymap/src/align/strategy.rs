@@ -36,7 +36,9 @@
 //!    guess may win (any may veto).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
-//!    [`Tracking::enters_map`]).
+//!    [`Tracking::enters_map`]), or when ICP from the search's pose and from the starts
+//!    reached distinct poses that both observe every direction and fit alike (within
+//!    `tracking.ambiguous_above` of the inliers).
 
 use super::global::bounds;
 use super::track::{
@@ -124,7 +126,12 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
         config,
         points: &points,
     };
-    let (mut result, found, search_won) = tracker.icp();
+    let Aligned {
+        mut result,
+        found,
+        search_won,
+        second_fit,
+    } = tracker.icp();
     let first = input.map.is_empty();
     let mut tracking = verdict(result.as_ref(), points.len(), first, config.tracking);
     if config.tracking.corner_hypotheses
@@ -137,11 +144,23 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     }
     tracking.searched = found.is_some();
     tracking.search_won = search_won;
-    if tracking.verdict == Verdict::Ok && found.is_some_and(|m| m.ambiguous()) {
+    // A rival on the raster, or (unless a corner pose replaced ICP's) ICP from the search's
+    // pose fitting nearly as well elsewhere.
+    let second_fit = second_fit && !tracking.corner_won;
+    if tracking.verdict == Verdict::Ok && (second_fit || found.is_some_and(|m| m.ambiguous())) {
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::Ambiguous;
     }
     (result, tracking)
+}
+
+/// Whether `other`, an ICP pose that lost to `kept`, makes the scan's place ambiguous: distinct
+/// from it (more than `tracking.rival_apart_m` or `rival_apart_deg`), observed in every
+/// direction, and fitting at least `tracking.ambiguous_above` of its inliers.
+fn fits_nearly_as_well(other: &AlignResult, kept: &AlignResult, tracking: &TrackParams) -> bool {
+    other.weak_directions == 0
+        && tracking.apart(&kept.map_from_robot, &other.map_from_robot)
+        && other.inliers as f64 >= tracking.ambiguous_above * kept.inliers as f64
 }
 
 /// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
@@ -224,6 +243,32 @@ fn segments_near(input: &TrackInput, pose: &Pose2, params: &AlignParams) -> Opti
     )
 }
 
+/// What [`Tracker::icp`] found.
+struct Aligned {
+    /// The pose kept (`None`: nothing to align to).
+    result: Option<AlignResult>,
+    /// The window search's outcome, when it ran.
+    found: Option<WindowMatch>,
+    /// Whether ICP from the search's pose replaced ICP from the starts.
+    search_won: bool,
+    /// Whether the other of the two ICP poses is distinct from the one kept (more than
+    /// `tracking.rival_apart_m` or `rival_apart_deg`), observed in every direction, and fits
+    /// at least `tracking.ambiguous_above` of its inliers.
+    second_fit: bool,
+}
+
+impl Aligned {
+    /// ICP from the starts alone: no search.
+    fn icp(result: Option<AlignResult>) -> Aligned {
+        Aligned {
+            result,
+            found: None,
+            search_won: false,
+            second_fit: false,
+        }
+    }
+}
+
 /// One scan's alignment in progress.
 struct Tracker<'a> {
     input: &'a TrackInput<'a>,
@@ -234,11 +279,11 @@ struct Tracker<'a> {
 
 impl Tracker<'_> {
     /// ICP from the starts, the recovery, the window search; with the search's outcome when
-    /// it ran and whether its pose won.
-    fn icp(&self) -> (Option<AlignResult>, Option<WindowMatch>, bool) {
+    /// it ran, whether its pose won, and whether the loser fitted nearly as well.
+    fn icp(&self) -> Aligned {
         let input = self.input;
         let Some(result) = self.icp_from_starts() else {
-            return (None, None, false);
+            return Aligned::icp(None);
         };
         let tracking = self.config.tracking;
         let (guess, anchor, lost_streak) = (input.guess, input.anchor, input.lost_streak);
@@ -254,7 +299,7 @@ impl Tracker<'_> {
                 tracking,
             )
         {
-            return (Some(result), None, false);
+            return Aligned::icp(Some(result));
         }
         let every = tracking.relocalize_every_lost;
         let global = every > 0 && lost_streak > 0 && lost_streak.is_multiple_of(every);
@@ -269,19 +314,22 @@ impl Tracker<'_> {
         let seed = Some(result.map_from_robot);
         let Some(found) = window_search(input.map, &loose, self.points, &window, seed, tracking)
         else {
-            return (Some(result), None, false);
+            return Aligned::icp(Some(result));
         };
         if found.best.map_from_robot == result.map_from_robot {
-            return (Some(result), Some(found), false); // nothing in the window beat ICP's pose
+            // Nothing in the window beat ICP's pose.
+            return Aligned {
+                found: Some(found),
+                ..Aligned::icp(Some(result))
+            };
         }
         let searched = self.run_near(found.best.map_from_robot);
         // The search's pose must fit clearly better: along a corridor, or with odometry's good
         // guess, a pose that fits a few more points by coincidence is no evidence.
         let margin = tracking.search_win_margin;
-        // Where ICP had no evidence along a direction, evidence wins over none.
-        // ICP from the search's pose must observe every direction, agree with ICP's pose in
-        // the directions ICP did observe (across the axis, and the rotation), and fit as many
-        // points.
+        // Where ICP had no evidence along an axis, evidence wins over none: ICP from the
+        // search's pose must observe every direction, agree with ICP's pose in the directions
+        // ICP did observe (across the axis, and the rotation), and fit as many points.
         let evidence = unobserved.is_some_and(|axis| {
             let moved = searched.map_from_robot.translation() - result.map_from_robot.translation();
             let turned = searched.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
@@ -291,10 +339,18 @@ impl Tracker<'_> {
                 && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians()
                 && searched.inliers >= result.inliers
         });
-        if searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 || evidence {
-            (Some(searched), Some(found), true)
-        } else {
-            (Some(result), Some(found), false)
+        let search_won =
+            searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 || evidence;
+        let (kept, other) = match search_won {
+            true => (searched, result),
+            false => (result, searched),
+        };
+        let second_fit = fits_nearly_as_well(&other, &kept, tracking);
+        Aligned {
+            result: Some(kept),
+            found: Some(found),
+            search_won,
+            second_fit,
         }
     }
 
@@ -820,10 +876,36 @@ mod tests {
                 config: &config,
                 ..*t
             };
-            let (result, found, won) = tracker.icp();
-            assert!(found.is_none() && !won);
+            let Aligned {
+                result,
+                found,
+                search_won,
+                ..
+            } = tracker.icp();
+            assert!(found.is_none() && !search_won);
             assert!(result.is_some_and(|r| r.map_from_robot.x_m.abs() < 0.05));
         });
+    }
+
+    #[test]
+    fn a_distinct_pose_fitting_nearly_as_well_makes_the_scan_ambiguous() {
+        let tracking = TrackParams::default();
+        let fit = |x_m: f64, inliers: usize, weak_directions: u8| AlignResult {
+            map_from_robot: Pose2::new(x_m, 0.0, 0.0),
+            iterations: 5,
+            correspondences: inliers,
+            inliers,
+            residual_rms_m: 0.01,
+            converged: true,
+            weak_directions,
+            weak_direction_deg: None,
+            translation_information: Default::default(),
+        };
+        let kept = fit(0.0, 100, 0);
+        assert!(fits_nearly_as_well(&fit(0.6, 96, 0), &kept, &tracking));
+        assert!(!fits_nearly_as_well(&fit(0.6, 90, 0), &kept, &tracking)); // fits worse
+        assert!(!fits_nearly_as_well(&fit(0.3, 100, 0), &kept, &tracking)); // the same place
+        assert!(!fits_nearly_as_well(&fit(0.6, 100, 1), &kept, &tracking)); // not observed
     }
 
     #[test]

@@ -111,7 +111,10 @@ pub struct TrackParams {
     pub rival_apart_m: f64,
     /// ...or `rival_apart_deg` degrees from the best...
     pub rival_apart_deg: f64,
-    /// ...scores at least this share of the best's score; the scan is then `weak`.
+    /// ...scores at least this share of the best's score; the scan is then `weak`. Also when
+    /// ICP from the search's pose and ICP from the starts reach two such distinct poses, both
+    /// observed in every direction, and the one not kept fits at least this share of the
+    /// other's inliers.
     pub ambiguous_above: f64,
     /// Scan points of the last this many scans that lie off the map's segments enter the
     /// search raster (pillars, corners, door frames).
@@ -291,7 +294,8 @@ pub enum Reason {
     WeaklyObserved,
     /// Enough points fit to keep the scan, too few to trust it.
     PoorFit,
-    /// The window search found a distinct pose that explains the scan about as well.
+    /// The window search found a distinct pose that explains the scan about as well (on its
+    /// raster, or by ICP from its pose).
     Ambiguous,
     /// Most points near a wall are not on it: the pose contradicts the map.
     Contradicted,
