@@ -82,10 +82,23 @@ fn the_halves_of_a_simulated_floor_merge_at_the_true_transform() {
     let half = map_halves(&d.join("clutter.clf"), d);
     let (o, report) = merge(&d.join("A"), &d.join("B"), &d.join("M"));
     assert!(o.status.success(), "{}", text(&o));
-    // A's frame is the first scan's, B's the pose of scan `half`: the truth is that pose.
-    let truth = read_tum(d.join("clutter.truth.tum")).unwrap()[half].map_from_robot;
+    // A's frame is the first scan's, B's the pose of scan `half`: the truth is that pose. The
+    // merge lays B's map onto A's, so it can be no truer than A's map is where they meet: the
+    // tolerance is 0.1 m beyond how far A's own last pose is from the truth (0.10–0.16 m on
+    // this world, depending on the build: tracking drift, not the merge).
+    let truths = read_tum(d.join("clutter.truth.tum")).unwrap();
+    let truth = truths[half].map_from_robot;
+    let a_last = read_tum(d.join("A/trajectory.tum"))
+        .unwrap()
+        .last()
+        .unwrap()
+        .map_from_robot;
+    let (a_drift_m, _) = error(&truths[half - 1].map_from_robot, &a_last);
     let (m, deg) = error(&truth, &a_from_b(&report));
-    assert!(m < 0.1 && deg < 1.0, "{m} m, {deg}°: {report}");
+    assert!(
+        m < 0.1 + a_drift_m && deg < 1.0,
+        "{m} m, {deg}° (A's last pose {a_drift_m} m off): {report}"
+    );
     assert_eq!(report["verdict"], "accepted");
     let merged = read_map_json(d.join("M/map.json")).unwrap();
     let a = read_map_json(d.join("A/map.json")).unwrap();

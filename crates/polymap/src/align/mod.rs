@@ -49,7 +49,10 @@ pub use pair_search::{
     points_along,
 };
 pub use pairs::{Corner, corner_poses, corners};
-pub use point_to_segment::{align_points, thin_points};
+pub use point_to_segment::{
+    LOOSE_DISTINCT_M, LOOSE_GATE_M, LOOSE_LINE_BELOW, LOOSE_MIN_NEIGHBOURS, LOOSE_NEIGHBOURHOOD_M,
+    PointTargets, align_points, align_points_and_loose, thin_points,
+};
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
 pub use solver::Constraint;
@@ -58,8 +61,8 @@ pub use strategy::{
     better, track_scan, whole_map_window,
 };
 pub use track::{
-    LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict, WindowMatch, search_window,
-    should_search, verdict, window_search,
+    LOOSE_OFF_MAP_M, LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict,
+    WindowMatch, search_window, should_search, verdict, window_search,
 };
 
 /// Which correspondences drive ICP.

@@ -5,6 +5,10 @@ use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::geometry::{Pose2, Vec2};
 use crate::segment_index::NearestCertificate;
 
+/// A point-to-point match is at most this far, metres (whatever ICP's gate): a loose point is
+/// a single sample, not a wall that a point may be far from along its normal.
+pub const LOOSE_GATE_M: f64 = 0.3;
+
 /// Keeps points at least `spacing_m` from the previously kept one (in order), so that close
 /// walls, sampled densely, do not outweigh far ones.
 ///
@@ -27,11 +31,174 @@ pub fn thin_points(points: &[Vec2], spacing_m: f64) -> Vec<Vec2> {
     out
 }
 
+/// Points ICP may also match a scan point to when no map segment explains it (map frame,
+/// metres): the recent scans' points the map's segments leave unexplained (door frames,
+/// pillars, chair legs, walls too short or too sparsely sampled to become segments), see
+/// [`align_points_and_loose`].
+///
+/// Points within [`LOOSE_DISTINCT_M`] of one already kept count once (a robot that stands or
+/// creeps samples a wall at the same places scan after scan, and those repeats are no shape).
+/// Each point is matched by the shape of its neighbourhood (the points within
+/// [`LOOSE_NEIGHBOURHOOD_M`]): on a line (a wall sampled by several scans) point to line, so
+/// that a wall's samples, which no two scans take at the same places, say nothing along the
+/// wall; a compact blob (a post, a corner, a chair leg) point to point; a point with fewer than
+/// [`LOOSE_MIN_NEIGHBOURS`] neighbours (a single far return) not at all. Shapes are worked out
+/// when a scan point first meets the target, so that the many targets no point comes near cost
+/// nothing.
+#[derive(Debug, Clone, Default)]
+pub struct PointTargets {
+    tree: rstar::RTree<rstar::primitives::GeomWithData<[f64; 2], usize>>,
+    shapes: Vec<std::cell::OnceCell<Option<Shape>>>,
+}
+
+/// How a target point constrains a scan point matched to it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Shape {
+    /// On a line with this unit normal (map frame): one point-to-line constraint.
+    Line(Vec2),
+    /// A compact feature: point to point.
+    Blob,
+}
+
+/// Radius of a target point's neighbourhood, metres.
+pub const LOOSE_NEIGHBOURHOOD_M: f64 = 0.5;
+
+/// Points within this distance of one already counted count once, metres.
+pub const LOOSE_DISTINCT_M: f64 = 0.05;
+
+/// A target point needs this many points (itself included) within [`LOOSE_NEIGHBOURHOOD_M`].
+pub const LOOSE_MIN_NEIGHBOURS: usize = 3;
+
+/// A neighbourhood whose smaller spread (covariance eigenvalue) is under this share of the
+/// larger is a line.
+pub const LOOSE_LINE_BELOW: f64 = 0.1;
+
+impl PointTargets {
+    /// Indexes the distinct points of `points_in_map` (map frame, metres).
+    pub fn new(points_in_map: &[Vec2]) -> Self {
+        let cell = |p: Vec2| {
+            (
+                (p.x / LOOSE_DISTINCT_M).floor() as i64,
+                (p.y / LOOSE_DISTINCT_M).floor() as i64,
+            )
+        };
+        let mut grid: rustc_hash::FxHashMap<(i64, i64), Vec<Vec2>> = Default::default();
+        let d2 = LOOSE_DISTINCT_M * LOOSE_DISTINCT_M;
+        let mut distinct: Vec<rstar::primitives::GeomWithData<[f64; 2], usize>> = Vec::new();
+        for &p in points_in_map {
+            let (cx, cy) = cell(p);
+            let repeat = (cx - 1..=cx + 1).any(|x| {
+                (cy - 1..=cy + 1).any(|y| {
+                    grid.get(&(x, y))
+                        .is_some_and(|kept| kept.iter().any(|k| k.distance_squared(p) < d2))
+                })
+            });
+            if !repeat {
+                grid.entry((cx, cy)).or_default().push(p);
+                distinct.push(rstar::primitives::GeomWithData::new(
+                    [p.x, p.y],
+                    distinct.len(),
+                ));
+            }
+        }
+        let shapes = vec![std::cell::OnceCell::new(); distinct.len()];
+        PointTargets {
+            tree: rstar::RTree::bulk_load(distinct),
+            shapes,
+        }
+    }
+
+    /// True when there is no point.
+    pub fn is_empty(&self) -> bool {
+        self.shapes.is_empty()
+    }
+
+    /// How many distinct points there are.
+    pub fn len(&self) -> usize {
+        self.shapes.len()
+    }
+
+    /// The constraints for scan point `p_in_robot`, at `q` in the map frame, from the nearest
+    /// target within `max_m`: none, one (point to line) or two (point to point).
+    fn constrain(&self, p_in_robot: Vec2, q: Vec2, max_m: f64, out: &mut Vec<Constraint>) {
+        let Some(t) = self.tree.nearest_neighbor([q.x, q.y]) else {
+            return;
+        };
+        let at = Vec2::new(t.geom()[0], t.geom()[1]);
+        if at.distance_squared(q) > max_m * max_m {
+            return;
+        }
+        let shape = self.shapes[t.data].get_or_init(|| {
+            let r2 = LOOSE_NEIGHBOURHOOD_M * LOOSE_NEIGHBOURHOOD_M;
+            let near: Vec<Vec2> = self
+                .tree
+                .locate_within_distance(*t.geom(), r2)
+                .map(|n| Vec2::new(n.geom()[0], n.geom()[1]))
+                .collect();
+            shape_of(&near)
+        });
+        match *shape {
+            Some(Shape::Line(normal)) => out.push(Constraint {
+                p_in_robot,
+                q_in_map: at,
+                normal,
+            }),
+            Some(Shape::Blob) => out.extend(Constraint::point_pair(p_in_robot, at)),
+            None => {}
+        }
+    }
+}
+
+/// The shape of a neighbourhood; `None` when it has too few points.
+fn shape_of(near: &[Vec2]) -> Option<Shape> {
+    if near.len() < LOOSE_MIN_NEIGHBOURS {
+        return None;
+    }
+    let n = near.len() as f64;
+    let mean = near.iter().fold(Vec2::ZERO, |a, p| a + *p) / n;
+    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
+    for p in near {
+        let d = *p - mean;
+        xx += d.x * d.x;
+        xy += d.x * d.y;
+        yy += d.y * d.y;
+    }
+    // Eigenvalues of the 2×2 covariance, and the eigenvector of the smaller one.
+    let half_trace = 0.5 * (xx + yy);
+    let root = (0.25 * (xx - yy) * (xx - yy) + xy * xy).sqrt();
+    let (big, small) = (half_trace + root, half_trace - root);
+    if big <= 0.0 || small >= LOOSE_LINE_BELOW * big {
+        return Some(Shape::Blob);
+    }
+    // The direction of the larger spread; the normal is across it.
+    let along = if xy.abs() > 1e-12 {
+        Vec2::new(big - yy, xy)
+    } else if xx >= yy {
+        Vec2::X
+    } else {
+        Vec2::Y
+    };
+    Some(Shape::Line(along.normalize().perp()))
+}
+
 /// Aligns scan points (robot frame) to map segments by point-to-line ICP, starting at `guess`;
 /// unobservable directions end on `anchor`.
 pub fn align_points(
     points_in_robot: &[Vec2],
     map: &impl SegmentLookup,
+    guess: Pose2,
+    anchor: Pose2,
+    params: &AlignParams,
+) -> AlignResult {
+    align_points_and_loose(points_in_robot, map, None, guess, anchor, params)
+}
+
+/// [`align_points`], where a scan point no map segment explains within the gate may also match
+/// the nearest of `targets` within it (see [`PointTargets`]).
+pub fn align_points_and_loose(
+    points_in_robot: &[Vec2],
+    map: &impl SegmentLookup,
+    targets: Option<&PointTargets>,
     guess: Pose2,
     anchor: Pose2,
     params: &AlignParams,
@@ -53,18 +220,23 @@ pub fn align_points(
                     }
                 }
             };
-            let Some(s) = nearest else {
+            let on_segment = nearest.and_then(|s| {
+                let len = s.length();
+                if len <= 0.0 {
+                    return None;
+                }
+                let dir = s.vector() / len;
+                let along = (q - s.start).dot(dir);
+                // Beyond the mapped part of the wall: unknown space.
+                (along >= -params.endpoint_slack_m && along <= len + params.endpoint_slack_m)
+                    .then_some((s, dir))
+            });
+            let Some((s, dir)) = on_segment else {
+                if let Some(t) = targets {
+                    t.constrain(p, q, gate_m.min(LOOSE_GATE_M), out);
+                }
                 continue;
             };
-            let len = s.length();
-            if len <= 0.0 {
-                continue;
-            }
-            let dir = s.vector() / len;
-            let along = (q - s.start).dot(dir);
-            if along < -params.endpoint_slack_m || along > len + params.endpoint_slack_m {
-                continue; // beyond the mapped part of the wall: unknown space
-            }
             out.push(Constraint {
                 p_in_robot: p,
                 q_in_map: s.start,

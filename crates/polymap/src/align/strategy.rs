@@ -42,13 +42,13 @@
 
 use super::global::bounds;
 use super::track::{
-    LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict, WindowMatch, search_window,
-    should_search, verdict, window_search,
+    LOOSE_OFF_MAP_M, LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict,
+    WindowMatch, search_window, should_search, verdict, window_search,
 };
 use super::{
-    AlignMethod, AlignParams, AlignResult, SearchWindow, SegmentLookup, Until, align_endpoints,
-    align_points, corner_seeds, fit_score, fit_score_above, map_bounds, rotation_search,
-    score_sample, thin_points,
+    AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup, Until,
+    align_endpoints, align_points_and_loose, corner_seeds, fit_score, fit_score_above, map_bounds,
+    rotation_search, score_sample, thin_points,
 };
 use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
@@ -104,6 +104,21 @@ pub const UNOBSERVED_TURN_DEG: f64 = 3.0;
 /// The recovery searches positions within this distance of the anchor (each axis), metres.
 pub const RECOVER_TRANSLATION_M: f64 = 1.0;
 
+/// The recent scans' points the map's segments leave unexplained, for ICP
+/// (`tracking.icp_loose_points`; point-to-segment ICP only); `None` when there are none.
+fn loose_targets(input: &TrackInput, config: &TrackConfig) -> Option<PointTargets> {
+    if !config.tracking.icp_loose_points || config.align.method != AlignMethod::PointToSegment {
+        return None;
+    }
+    let unexplained: Vec<Vec2> = input
+        .loose
+        .all()
+        .into_iter()
+        .filter(|p| input.map.nearest_id(*p, LOOSE_OFF_MAP_M).is_none())
+        .collect();
+    (!unexplained.is_empty()).then(|| PointTargets::new(&unexplained))
+}
+
 /// True when `a` explains the scan better than `b`: more inliers, then a lower residual.
 pub fn better(a: &AlignResult, b: &AlignResult) -> bool {
     (a.inliers, -a.residual_rms_m) > (b.inliers, -b.residual_rms_m)
@@ -121,10 +136,12 @@ fn best_of(results: impl IntoIterator<Item = AlignResult>) -> Option<AlignResult
 /// to (an empty map, a scan without points).
 pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResult>, Tracking) {
     let points = thin_points(input.points_in_robot, config.align.point_spacing_m);
+    let targets = loose_targets(input, config);
     let tracker = Tracker {
         input,
         config,
         points: &points,
+        targets: targets.as_ref(),
     };
     let Aligned {
         mut result,
@@ -275,6 +292,8 @@ struct Tracker<'a> {
     config: &'a TrackConfig<'a>,
     /// The scan's points thinned to `align.point_spacing_m`, robot frame.
     points: &'a [Vec2],
+    /// The loose points ICP may match point to point.
+    targets: Option<&'a PointTargets>,
 }
 
 impl Tracker<'_> {
@@ -430,7 +449,7 @@ impl Tracker<'_> {
         let anchor = input.anchor;
         match params.method {
             AlignMethod::PointToSegment => {
-                align_points(self.points, input.map, start, anchor, params)
+                align_points_and_loose(self.points, input.map, self.targets, start, anchor, params)
             }
             AlignMethod::Endpoints => align_endpoints(
                 input.segments_in_robot,
@@ -632,6 +651,7 @@ mod tests {
             input: &input,
             config: &config,
             points: &thinned,
+            targets: None,
         })
     }
 

@@ -121,3 +121,101 @@ fn corridor_puts_the_unobservable_direction_on_the_anchor() {
     assert!((r.map_from_robot.y_m - 0.2).abs() < 0.01, "{r:?}");
     assert_eq!(r.weak_directions, 1);
 }
+
+/// In a corridor whose walls are the whole map, a few posts the map has no segment for (the
+/// last scan's points off the walls) observe the step along it: point-to-point matches to those
+/// loose points move the pose along the corridor, where ICP on the walls alone stays on the
+/// anchor.
+#[test]
+fn loose_points_observe_a_step_along_a_corridor() {
+    let walls = vec![seg(-50.0, -1.0, 50.0, -1.0), seg(-50.0, 1.0, 50.0, 1.0)];
+    let post = |x: f64, y: f64| {
+        let h = 0.05;
+        [
+            seg(x - h, y - h, x + h, y - h),
+            seg(x + h, y - h, x + h, y + h),
+            seg(x + h, y + h, x - h, y + h),
+            seg(x - h, y + h, x - h, y - h),
+        ]
+    };
+    let mut world = walls.clone();
+    for (x, y) in [(1.5, 0.5), (-2.0, -0.6), (3.0, -0.4), (-1.0, 0.4)] {
+        world.extend(post(x, y));
+    }
+    let map = SegmentIndex::from_segments(&walls, 0.5, 1.0);
+    let last = Pose2::IDENTITY;
+    let loose: Vec<Vec2> = cast(&world, &last)
+        .into_iter()
+        .map(|p| last.transform_point(p))
+        .filter(|p| (p.y.abs() - 1.0).abs() > 0.15)
+        .collect();
+    assert!(loose.len() >= 8, "{} loose points", loose.len());
+    let targets = PointTargets::new(&loose);
+    let truth = Pose2::new(0.12, 0.05, 0.01);
+    let points = thin_points(&cast(&world, &truth), 0.05);
+    let params = AlignParams::default();
+    let walls_only = align_points(&points, &map, last, last, &params);
+    assert!(walls_only.weak_directions > 0, "{walls_only:?}");
+    assert!(walls_only.map_from_robot.x_m.abs() < 0.01, "{walls_only:?}");
+    let with_loose = align_points_and_loose(&points, &map, Some(&targets), last, last, &params);
+    let e = truth.between(&with_loose.map_from_robot);
+    assert_eq!(with_loose.weak_directions, 0, "{with_loose:?}");
+    assert!(
+        e.translation().length() < 0.02 && e.theta_rad.abs() < 0.3f64.to_radians(),
+        "error {e:?}, {with_loose:?}"
+    );
+}
+
+/// Loose points that sample a wall the map has no segment for yet (the corridor ahead) are
+/// matched point to line: they hold the pose across the wall but, sampled at other places by
+/// every scan, say nothing along it, so the step along a bare corridor stays unobserved (on the
+/// anchor) instead of being pinned to "no motion" by point-to-point pairs. Samples repeated
+/// scan after scan at the same places (a robot standing) count once and give no constraint.
+#[test]
+fn loose_points_on_a_wall_say_nothing_along_it() {
+    let walls = vec![seg(-50.0, -1.0, 50.0, -1.0), seg(-50.0, 1.0, 50.0, 1.0)];
+    let mapped = vec![seg(-50.0, -1.0, 2.0, -1.0), seg(-50.0, 1.0, 2.0, 1.0)];
+    let map = SegmentIndex::from_segments(&mapped, 0.5, 1.0);
+    // Three earlier scans, 5 cm apart, sample the unmapped walls at their own places.
+    let loose: Vec<Vec2> = [-0.1, -0.05, 0.0]
+        .iter()
+        .flat_map(|&x| {
+            let pose = Pose2::new(x, 0.0, 0.0);
+            cast(&walls, &pose)
+                .into_iter()
+                .map(move |p| pose.transform_point(p))
+        })
+        .filter(|p| p.x > 2.2)
+        .collect();
+    assert!(loose.len() >= 20, "{} loose points", loose.len());
+    let targets = PointTargets::new(&loose);
+    let truth = Pose2::new(0.1, 0.05, 0.0);
+    let points = thin_points(&cast(&walls, &truth), 0.05);
+    let anchor = Pose2::new(0.05, 0.0, 0.0);
+    let params = AlignParams::default();
+    let r = align_points_and_loose(&points, &map, Some(&targets), anchor, anchor, &params);
+    assert!(r.weak_directions > 0, "{r:?}");
+    assert!((r.map_from_robot.x_m - anchor.x_m).abs() < 1e-6, "{r:?}");
+    assert!((r.map_from_robot.y_m - truth.y_m).abs() < 0.01, "{r:?}");
+
+    // A standing robot: the same sparse samples three times over (1 cm of noise) are one
+    // point each, too few for a shape: no target constrains anything.
+    let far: Vec<Vec2> = (0..5)
+        .map(|i| Vec2::new(6.0 + 1.5 * f64::from(i), 1.0))
+        .collect();
+    let repeated: Vec<Vec2> = [0.0, 0.01, -0.01]
+        .iter()
+        .flat_map(|&e| far.iter().map(move |p| *p + Vec2::new(e, e)))
+        .collect();
+    let targets = PointTargets::new(&repeated);
+    assert_eq!(targets.len(), far.len());
+    let none = align_points_and_loose(
+        &far,
+        &map,
+        Some(&targets),
+        Pose2::IDENTITY,
+        Pose2::IDENTITY,
+        &params,
+    );
+    assert_eq!(none.correspondences, 0, "{none:?}");
+}

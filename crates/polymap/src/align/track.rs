@@ -121,6 +121,11 @@ pub struct TrackParams {
     pub loose_point_scans: usize,
     /// Loose points are thinned to this spacing, metres.
     pub loose_point_spacing_m: f64,
+    /// ICP also matches scan points that no map segment explains to the loose points farther
+    /// than [`LOOSE_OFF_MAP_M`] from every map segment (point to line on a line of them, point
+    /// to point on a compact blob: see [`crate::align::PointTargets`]): door frames, pillars and
+    /// clutter then observe the motion along a corridor whose walls alone cannot.
+    pub icp_loose_points: bool,
     /// When the final pose is still `lost` or a `poor_fit` (the motion went beyond the window
     /// search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
     /// (see [`crate::align::corner_seeds`]); with the odometry prior turned at most
@@ -181,6 +186,7 @@ impl Default for TrackParams {
             ambiguous_above: 0.95,
             loose_point_scans: 5,
             loose_point_spacing_m: 0.1,
+            icp_loose_points: true,
             corner_hypotheses: true,
             corner_reach_m: 3.0,
             corner_seeds: 3,
@@ -631,6 +637,11 @@ pub fn verdict(
         weak_direction_deg,
     }
 }
+
+/// With `tracking.icp_loose_points`, a loose point at least this far from every map segment is
+/// one the map leaves unexplained, metres (closer, it is a sample of a mapped wall, which
+/// ICP matches to the segment).
+pub const LOOSE_OFF_MAP_M: f64 = 0.15;
 
 /// Keeps the loose points of the last scans: points of a tracked scan (robot frame, placed by
 /// `map_from_robot`) farther than `off_m` from the map, thinned.
