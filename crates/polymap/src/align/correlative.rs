@@ -64,6 +64,14 @@ pub struct CorrelativeMatcher {
     padded_height: i64,
 }
 
+impl Drop for CorrelativeMatcher {
+    fn drop(&mut self) {
+        for level in self.levels.drain(..) {
+            super::buffers::recycle(level);
+        }
+    }
+}
+
 /// One rotation of the window: the points' cells at zero offset.
 #[derive(Debug, Clone)]
 struct Rotation {
@@ -170,7 +178,7 @@ impl CorrelativeMatcher {
         let pad = (1i64 << max_level) - 1;
         let (pw, ph) = (w as i64 + pad, h as i64 + pad);
         let (wu, len) = (pw as usize, (pw * ph) as usize);
-        let mut base = vec![0f32; len];
+        let mut base = super::buffers::zeroed(len);
         for (y, row) in raster.values().chunks(w.max(1)).enumerate() {
             let at = (y as i64 + pad) * pw + pad;
             base[at as usize..at as usize + row.len()].copy_from_slice(row);
@@ -182,7 +190,7 @@ impl CorrelativeMatcher {
             let prev = &levels[level as usize - 1];
             // Along x, then along y, each a max of two blocks of the level below (plain
             // loops over slices: the iterator chain it replaces cost three times as much).
-            let mut both = vec![0f32; len];
+            let mut both = super::buffers::zeroed(len);
             for (out, row) in both.chunks_exact_mut(wu).zip(prev.chunks_exact(wu)) {
                 let split = wu.saturating_sub(half);
                 for ((o, a), b) in out[..split].iter_mut().zip(&row[..split]).zip(&row[half..]) {

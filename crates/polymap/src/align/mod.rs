@@ -21,6 +21,7 @@
 //! hypotheses from pairs of segments (`pairs.rs`), verified on a [`ScoreRaster`], refined by
 //! [`CorrelativeMatcher`] and ICP (`global.rs`).
 
+mod buffers;
 mod corner_seeds;
 mod correlative;
 mod endpoints;

@@ -8,6 +8,12 @@
 
 use crate::geometry::{Segment, Vec2};
 
+impl Drop for ScoreRaster {
+    fn drop(&mut self) {
+        super::buffers::recycle(std::mem::take(&mut self.values));
+    }
+}
+
 /// Most cells of one raster; a larger extent gets coarser cells (bounded memory: 4 MiB).
 pub const MAX_RASTER_CELLS: usize = 1 << 20;
 
@@ -52,7 +58,7 @@ impl ScoreRaster {
             sigma_m,
             width,
             height,
-            values: vec![0.0; width * height],
+            values: super::buffers::zeroed(width * height),
         }
     }
 
