@@ -163,7 +163,7 @@ fn shape_of(near: &[Vec2]) -> Option<Shape> {
         xy += d.x * d.y;
         yy += d.y * d.y;
     }
-    // Eigenvalues of the 2×2 covariance, and the eigenvector of the smaller one.
+    // Eigenvalues of the 2×2 covariance (the larger one's eigenvector is the line's direction).
     let half_trace = 0.5 * (xx + yy);
     let root = (0.25 * (xx - yy) * (xx - yy) + xy * xy).sqrt();
     let (big, small) = (half_trace + root, half_trace - root);
