@@ -94,6 +94,10 @@ fn the_halves_of_a_simulated_floor_merge_at_the_true_transform() {
         .unwrap()
         .map_from_robot;
     let (a_drift_m, _) = error(&truths[half - 1].map_from_robot, &a_last);
+    assert!(
+        a_drift_m < 0.25,
+        "half A drifted {a_drift_m} m: a tracking failure"
+    );
     let (m, deg) = error(&truth, &a_from_b(&report));
     assert!(
         m < 0.1 + a_drift_m && deg < 1.0,

@@ -9,7 +9,8 @@
 
 use std::cell::RefCell;
 
-/// At most this many buffers are kept per thread...
+/// At most this many buffers are kept per thread (the mapping thread and the loop thread each
+/// have their own list)...
 const MAX_KEPT: usize = 12;
 /// ...holding at most this many `f32` values together (64 MiB).
 const MAX_KEPT_VALUES: usize = 16 << 20;
@@ -44,7 +45,8 @@ pub(crate) fn recycle(v: Vec<f32>) {
     if v.capacity() == 0 {
         return;
     }
-    FREE.with(|free| {
+    // While the thread ends its local storage may be gone: the buffer is then just dropped.
+    let _ = FREE.try_with(|free| {
         let mut free = free.borrow_mut();
         let held: usize = free.iter().map(Vec::capacity).sum();
         if free.len() < MAX_KEPT && held + v.capacity() <= MAX_KEPT_VALUES {

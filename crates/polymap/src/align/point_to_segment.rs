@@ -5,8 +5,8 @@ use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::geometry::{Pose2, Vec2};
 use crate::segment_index::NearestCertificate;
 
-/// A point-to-point match is at most this far, metres (whatever ICP's gate): a loose point is
-/// a single sample, not a wall that a point may be far from along its normal.
+/// A scan point is matched to a loose point at most this far, metres (whatever ICP's gate,
+/// point to line or point to point): a loose point is a sample, not a mapped wall.
 pub const LOOSE_GATE_M: f64 = 0.3;
 
 /// Keeps points at least `spacing_m` from the previously kept one (in order), so that close
@@ -74,7 +74,8 @@ pub const LOOSE_MIN_NEIGHBOURS: usize = 3;
 pub const LOOSE_LINE_BELOW: f64 = 0.1;
 
 impl PointTargets {
-    /// Indexes the distinct points of `points_in_map` (map frame, metres).
+    /// Indexes the distinct points of `points_in_map` (map frame, metres; points that are not
+    /// finite are left out).
     pub fn new(points_in_map: &[Vec2]) -> Self {
         let cell = |p: Vec2| {
             (
@@ -85,7 +86,7 @@ impl PointTargets {
         let mut grid: rustc_hash::FxHashMap<(i64, i64), Vec<Vec2>> = Default::default();
         let d2 = LOOSE_DISTINCT_M * LOOSE_DISTINCT_M;
         let mut distinct: Vec<rstar::primitives::GeomWithData<[f64; 2], usize>> = Vec::new();
-        for &p in points_in_map {
+        for &p in points_in_map.iter().filter(|p| p.is_finite()) {
             let (cx, cy) = cell(p);
             let repeat = (cx - 1..=cx + 1).any(|x| {
                 (cy - 1..=cy + 1).any(|y| {
@@ -244,4 +245,40 @@ pub fn align_points_and_loose(
             });
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A line of points at any angle is a line whose normal is across it; a compact cluster
+    /// is a blob; two points are no shape.
+    #[test]
+    fn shapes_are_lines_at_any_angle_blobs_or_nothing() {
+        for deg in [0.0f64, 17.0, 60.0, 90.0, 100.0, 135.0, 160.0] {
+            let dir = Vec2::new(deg.to_radians().cos(), deg.to_radians().sin());
+            // Samples 0.1 m apart with a few millimetres across the line.
+            let near: Vec<Vec2> = (0..6)
+                .map(|i| dir * (0.1 * f64::from(i)) + dir.perp() * (0.003 * f64::from(i % 2)))
+                .collect();
+            match shape_of(&near) {
+                Some(Shape::Line(normal)) => {
+                    assert!(normal.dot(dir).abs() < 0.05, "{deg}°: normal {normal:?}");
+                    assert!((normal.length() - 1.0).abs() < 1e-9);
+                }
+                other => panic!("{deg}°: {other:?}"),
+            }
+        }
+        let blob = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(0.06, 0.01),
+            Vec2::new(0.02, 0.07),
+            Vec2::new(0.07, 0.06),
+        ];
+        assert_eq!(shape_of(&blob), Some(Shape::Blob));
+        assert_eq!(shape_of(&blob[..2]), None);
+        // Points that are not finite are left out of the targets.
+        let targets = PointTargets::new(&[Vec2::new(f64::INFINITY, 0.0), Vec2::new(f64::NAN, 1.0)]);
+        assert!(targets.is_empty());
+    }
 }

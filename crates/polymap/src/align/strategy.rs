@@ -24,8 +24,8 @@
 //!    on the anchor along a direction it could not observe is searched too, and the search's
 //!    pose wins when ICP from it observes every direction with at least as many inliers
 //!    (`tracking.search_unobserved`: evidence against none).
-//! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`
-//!    (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
+//! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
+//!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
 //!    the scan on a corner of the map within `tracking.corner_reach_m` of the guess
 //!    ([`corner_seeds`]), scored above ICP's pose on the search raster; the best replaces
@@ -152,7 +152,7 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     let first = input.map.is_empty();
     let mut tracking = verdict(result.as_ref(), points.len(), first, config.tracking);
     if config.tracking.corner_hypotheses
-        && doubtful(&tracking, config.tracking)
+        && doubtful(&tracking, config)
         && let Some(c) = result.as_ref().and_then(|r| tracker.icp_from_corners(r))
     {
         tracking = verdict(Some(&c), points.len(), first, config.tracking);
@@ -204,10 +204,13 @@ fn corner_turn_rad(odometry: bool, tracking: &TrackParams) -> f64 {
 /// points (a fit that would be searched whatever the motion: FR079 with odometry at every 5th
 /// scan, phase 4, took a step of 0.52 m forward from odometry where the robot backed 0.49 m,
 /// as `ok` with 44 % of its points inliers; see ARCHITECTURE, "Corner hypotheses").
-fn doubtful(tracking: &Tracking, params: &TrackParams) -> bool {
+/// Endpoint ICP (`--preset paper`) counts endpoint pairs against the scan's points, a share
+/// that is nearly always under half, so there only the verdict decides.
+fn doubtful(tracking: &Tracking, config: &TrackConfig) -> bool {
     tracking.verdict == Verdict::Lost
         || tracking.reason == Reason::PoorFit
-        || tracking.inlier_share < params.search_below_inlier_share
+        || (config.align.method == AlignMethod::PointToSegment
+            && tracking.inlier_share < config.tracking.search_below_inlier_share)
 }
 
 /// A window over the whole map and the whole circle, centred on the map's bounding box with
@@ -707,16 +710,32 @@ mod tests {
 
     /// The corner hypotheses are tried for a lost scan, a poor fit, and a pose that fits under
     /// half of the points even when its verdict is `ok` (an odometry step taken the wrong way
-    /// fitted 44 % of FR079's points, enough for `ok`); not for a pose that fits well.
+    /// fitted 44 % of FR079's points, enough for `ok`); not for a pose that fits well, nor by
+    /// the share alone with endpoint ICP (whose inliers are endpoint pairs).
     #[test]
     fn corner_hypotheses_are_tried_for_a_pose_that_fits_under_half_the_points() {
-        let p = TrackParams::default();
+        let tracking = TrackParams::default();
+        let mapper = MapperParams::default();
         let at = |verdict, reason, inlier_share| Tracking {
             verdict,
             reason,
             inlier_share,
             ..Tracking::default()
         };
+        let with = |method| AlignParams {
+            method,
+            ..AlignParams::default()
+        };
+        let (ours, paper) = (
+            with(AlignMethod::PointToSegment),
+            with(AlignMethod::Endpoints),
+        );
+        let config = |align| TrackConfig {
+            align,
+            tracking: &tracking,
+            starts: &mapper,
+        };
+        let p = config(&ours);
         assert!(doubtful(&at(Verdict::Ok, Reason::Fit, 0.44), &p));
         assert!(!doubtful(&at(Verdict::Ok, Reason::Fit, 0.8), &p));
         assert!(doubtful(&at(Verdict::Lost, Reason::TooFewInliers, 0.1), &p));
@@ -725,6 +744,9 @@ mod tests {
             &at(Verdict::Weak, Reason::WeaklyObserved, 0.9),
             &p
         ));
+        let e = config(&paper);
+        assert!(!doubtful(&at(Verdict::Ok, Reason::Fit, 0.44), &e));
+        assert!(doubtful(&at(Verdict::Weak, Reason::PoorFit, 0.3), &e));
     }
 
     /// A room of walls at unlike angles, with a bent wall inside: no two corners alike.

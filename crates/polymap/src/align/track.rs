@@ -126,8 +126,9 @@ pub struct TrackParams {
     /// to point on a compact blob: see [`crate::align::PointTargets`]): door frames, pillars and
     /// clutter then observe the motion along a corridor whose walls alone cannot.
     pub icp_loose_points: bool,
-    /// When the final pose is still `lost` or a `poor_fit` (the motion went beyond the window
-    /// search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
+    /// When the final pose is still `lost` or a `poor_fit`, or (point-to-segment ICP) fits
+    /// under `search_below_inlier_share` of the points whatever its verdict (the motion went
+    /// beyond the window search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
     /// (see [`crate::align::corner_seeds`]); with the odometry prior turned at most
     /// `max_window_deg` from its guess, otherwise any turn.
     pub corner_hypotheses: bool,
@@ -321,7 +322,8 @@ pub struct Tracking {
     pub verdict: Verdict,
     /// Why.
     pub reason: Reason,
-    /// Share of the (thinned) scan points that are ICP inliers, `[0, 1]`.
+    /// ICP's inliers over the (thinned) scan points: `[0, 1]`, except that a point matched point
+    /// to point to a loose blob counts two (x and y), so it may exceed 1 a little.
     pub inlier_share: f64,
     /// Whether the correlative window search ran.
     pub searched: bool,
