@@ -2,6 +2,7 @@
 
 use super::solver::{Constraint, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
+use crate::extract::fit_line;
 use crate::geometry::{Pose2, Vec2};
 use crate::segment_index::NearestCertificate;
 
@@ -150,36 +151,25 @@ impl PointTargets {
     }
 }
 
-/// The shape of a neighbourhood; `None` when it has too few points.
+/// The shape of a neighbourhood; `None` when it has too few points. The spreads across and
+/// along are those of its total-least-squares line ([`fit_line`]).
 fn shape_of(near: &[Vec2]) -> Option<Shape> {
     if near.len() < LOOSE_MIN_NEIGHBOURS {
         return None;
     }
-    let n = near.len() as f64;
-    let mean = near.iter().fold(Vec2::ZERO, |a, p| a + *p) / n;
-    let (mut xx, mut xy, mut yy) = (0.0, 0.0, 0.0);
-    for p in near {
-        let d = *p - mean;
-        xx += d.x * d.x;
-        xy += d.x * d.y;
-        yy += d.y * d.y;
-    }
-    // Eigenvalues of the 2×2 covariance (the larger one's eigenvector is the line's direction).
-    let half_trace = 0.5 * (xx + yy);
-    let root = (0.25 * (xx - yy) * (xx - yy) + xy * xy).sqrt();
-    let (big, small) = (half_trace + root, half_trace - root);
-    if big <= 0.0 || small >= LOOSE_LINE_BELOW * big {
+    // No line through points that all coincide.
+    let Some(fit) = fit_line(near) else {
+        return Some(Shape::Blob);
+    };
+    let across = fit.rms_m * fit.rms_m * near.len() as f64;
+    let total: f64 = near
+        .iter()
+        .map(|p| (*p - fit.centroid).length_squared())
+        .sum();
+    if across >= LOOSE_LINE_BELOW * (total - across) {
         return Some(Shape::Blob);
     }
-    // The direction of the larger spread; the normal is across it.
-    let along = if xy.abs() > 1e-12 {
-        Vec2::new(big - yy, xy)
-    } else if xx >= yy {
-        Vec2::X
-    } else {
-        Vec2::Y
-    };
-    Some(Shape::Line(along.normalize().perp()))
+    Some(Shape::Line(fit.direction.perp()))
 }
 
 /// Aligns scan points (robot frame) to map segments by point-to-line ICP, starting at `guess`;
