@@ -80,6 +80,7 @@ impl Config {
                 motion_prior: MotionPrior::Previous,
                 also_start_at_anchor: false,
                 weak_direction_velocity: 0.0,
+                keep_observed_velocity: false,
                 recover_below_inlier_share: 0.0,
                 ..d.mapper
             },

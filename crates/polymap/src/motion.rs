@@ -31,6 +31,12 @@ pub struct MapperParams {
     /// Share of the last scan-to-scan motion kept along directions ICP cannot observe, with the
     /// constant-velocity prior (0: assume no motion there; 1: assume the same motion again).
     pub weak_direction_velocity: f64,
+    /// With the constant-velocity prior, directions ICP cannot observe fall back to the
+    /// previous pose moved by the last motion that was observed (a step between two scans that
+    /// were both tracked `ok` with every direction observed) instead of
+    /// `weak_direction_velocity` of the last motion: a robot keeps its speed along a bare
+    /// corridor, and a motion that was itself taken from the prior never feeds back.
+    pub keep_observed_velocity: bool,
     /// With several ICP starts, score them by the soft inlier count of a sample of points and
     /// run ICP from the best one only (faster); otherwise run ICP from each and keep the best.
     pub icp_from_best_start_only: bool,
@@ -51,6 +57,7 @@ impl Default for MapperParams {
             motion_prior: MotionPrior::ConstantVelocity,
             also_start_at_anchor: true,
             weak_direction_velocity: 0.0,
+            keep_observed_velocity: true,
             icp_from_best_start_only: true,
             start_score_margin: 1.0,
             recover_below_inlier_share: 0.15,

@@ -68,8 +68,12 @@ pub struct TrackInput<'a> {
     pub loose: &'a LoosePoints,
     /// The motion prior's guess of the pose, map frame: ICP's first start.
     pub guess: Pose2,
-    /// The pose that directions ICP cannot observe fall back to, map frame.
+    /// The pose of "no motion" (the previous pose; with the odometry prior, its guess), map
+    /// frame: a start of ICP, the reference the window is sized by, the recovery's centre.
     pub anchor: Pose2,
+    /// The pose that directions ICP cannot observe fall back to, map frame: the anchor, or the
+    /// previous pose moved by the last observed motion (`mapper.keep_observed_velocity`).
+    pub unobserved_to: Pose2,
     /// The constant-velocity prediction (the last pose moved by the last scan-to-scan motion),
     /// map frame, when there are two poses before; checked against the odometry guess with the
     /// odometry prior.
@@ -100,6 +104,14 @@ pub const UNOBSERVED_ACROSS_M: f64 = 0.1;
 
 /// ...and is turned from it by at most this, degrees (the walls observed the rotation).
 pub const UNOBSERVED_TURN_DEG: f64 = 3.0;
+
+/// With `tracking.unobserved_reach_m`, ICP runs from poses this far apart along the axis,
+/// metres: within the reach of ICP's gate, so a frame or a wall end near the true pose draws it.
+pub const UNOBSERVED_SEED_STEP_M: f64 = 0.25;
+
+/// A weakly observed pose farther than this along its weak axis from the last observed
+/// motion's is checked against it, metres.
+pub const PRIOR_OVER_WEAK_M: f64 = 0.1;
 
 /// The recovery searches positions within this distance of the anchor (each axis), metres.
 pub const RECOVER_TRANSLATION_M: f64 = 1.0;
@@ -305,9 +317,108 @@ struct Tracker<'a> {
 }
 
 impl Tracker<'_> {
-    /// ICP from the starts, the recovery, the window search; with the search's outcome when
-    /// it ran, whether its pose won, and whether the loser fitted nearly as well.
+    /// ICP from the starts, the recovery, the window search, and along an axis neither could
+    /// observe ([`Tracker::along_unobserved`]); with the search's outcome when it ran, whether
+    /// its pose won, and whether the loser fitted nearly as well.
     fn icp(&self) -> Aligned {
+        let aligned = self.icp_and_search();
+        let Some(result) = aligned.result else {
+            return aligned;
+        };
+        let Some(axis) = self.unobserved(&result) else {
+            return match self.prior_over_weak(&result) {
+                Some(prior) => Aligned {
+                    result: Some(prior),
+                    ..aligned
+                },
+                None => aligned,
+            };
+        };
+        match self.along_unobserved(&result, axis) {
+            Some(moved) => Aligned {
+                result: Some(moved),
+                search_won: true,
+                second_fit: false,
+                ..aligned
+            },
+            None => aligned,
+        }
+    }
+
+    /// Where ICP observed the step along an axis only weakly and put it away from the
+    /// fallback of the unobserved (the last observed motion), ICP from that fallback; its pose
+    /// when it fits at least as many points and agrees across the axis and in rotation: a
+    /// weak observation that fits no better does not overrule the robot's speed.
+    fn prior_over_weak(&self, result: &AlignResult) -> Option<AlignResult> {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let info = result.translation_information;
+        let on = self.config.starts.keep_observed_velocity
+            && self.config.starts.motion_prior == MotionPrior::ConstantVelocity
+            && input.lost_streak == 0
+            && input.unobserved_to != input.anchor
+            && result.weak_directions == 0
+            && info.weakest < tracking.weak_below_information;
+        if !on {
+            return None;
+        }
+        let a = info.weakest_deg.to_radians();
+        let axis = Vec2::new(a.cos(), a.sin());
+        let apart = input.unobserved_to.translation() - result.map_from_robot.translation();
+        if apart.dot(axis).abs() <= PRIOR_OVER_WEAK_M {
+            return None;
+        }
+        let prior = self.run_near(input.unobserved_to);
+        let moved = prior.map_from_robot.translation() - result.map_from_robot.translation();
+        let turned = prior.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
+        (prior.inliers >= result.inliers
+            && moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
+            && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians())
+        .then_some(prior)
+    }
+
+    /// Whether ICP's pose `searched` is evidence of the step along `axis` that ICP's pose
+    /// `result` could not observe: it observes every direction, agrees with `result` in the
+    /// directions `result` did observe (across the axis, and the rotation), and fits as many
+    /// points.
+    fn evidence_along(&self, searched: &AlignResult, result: &AlignResult, axis: Vec2) -> bool {
+        let tracking = self.config.tracking;
+        let moved = searched.map_from_robot.translation() - result.map_from_robot.translation();
+        let turned = searched.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
+        searched.weak_directions == 0
+            && searched.translation_information.weakest >= tracking.weak_below_information
+            && moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
+            && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians()
+            && searched.inliers >= result.inliers
+    }
+
+    /// ICP from poses along `axis` (every [`UNOBSERVED_SEED_STEP_M`] up to
+    /// `tracking.unobserved_reach_m` either side of `result`): the best that is evidence of
+    /// the step ([`Tracker::evidence_along`]), unless a distinct one is evidence too.
+    fn along_unobserved(&self, result: &AlignResult, axis: Vec2) -> Option<AlignResult> {
+        let tracking = self.config.tracking;
+        let steps = (tracking.unobserved_reach_m / UNOBSERVED_SEED_STEP_M).floor() as i32;
+        let origin = result.map_from_robot;
+        let passed: Vec<AlignResult> = (-steps..=steps)
+            .filter(|&k| k != 0)
+            .map(|k| {
+                let d = axis * (k as f64 * UNOBSERVED_SEED_STEP_M);
+                self.run_near(Pose2::new(
+                    origin.x_m + d.x,
+                    origin.y_m + d.y,
+                    origin.theta_rad,
+                ))
+            })
+            .filter(|r| self.evidence_along(r, result, axis))
+            .collect();
+        let best = best_of(passed.iter().copied())?;
+        let rival = passed
+            .iter()
+            .any(|r| tracking.apart(&best.map_from_robot, &r.map_from_robot));
+        (!rival).then_some(best)
+    }
+
+    /// ICP from the starts, the recovery, the window search (see [`Tracker::icp`]).
+    fn icp_and_search(&self) -> Aligned {
         let input = self.input;
         let Some(result) = self.icp_from_starts() else {
             return Aligned::icp(None);
@@ -357,15 +468,7 @@ impl Tracker<'_> {
         // Where ICP had no evidence along an axis, evidence wins over none: ICP from the
         // search's pose must observe every direction, agree with ICP's pose in the directions
         // ICP did observe (across the axis, and the rotation), and fit as many points.
-        let evidence = unobserved.is_some_and(|axis| {
-            let moved = searched.map_from_robot.translation() - result.map_from_robot.translation();
-            let turned = searched.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
-            searched.weak_directions == 0
-                && searched.translation_information.weakest >= tracking.weak_below_information
-                && moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
-                && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians()
-                && searched.inliers >= result.inliers
-        });
+        let evidence = unobserved.is_some_and(|axis| self.evidence_along(&searched, &result, axis));
         let search_won =
             searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 || evidence;
         let (kept, other) = match search_won {
@@ -454,7 +557,7 @@ impl Tracker<'_> {
     /// segments near the scan for endpoint ICP (unused by point-to-segment ICP).
     fn run(&self, near: &[Segment], start: Pose2) -> AlignResult {
         let (input, params) = (self.input, self.config.align);
-        let anchor = input.anchor;
+        let anchor = input.unobserved_to;
         match params.method {
             AlignMethod::PointToSegment => {
                 align_points_and_loose(self.points, input.map, self.targets, start, anchor, params)
@@ -641,6 +744,7 @@ mod tests {
             loose: &loose,
             guess,
             anchor: guess,
+            unobserved_to: guess,
             constant_velocity: None,
             recent: &recent,
             lost_streak,
@@ -954,6 +1058,53 @@ mod tests {
             assert!(found.is_none() && !search_won);
             assert!(result.is_some_and(|r| r.map_from_robot.x_m.abs() < 0.05));
         });
+    }
+
+    #[test]
+    fn a_step_beyond_the_window_along_a_corridor_is_found_by_icp_along_the_axis() {
+        // A robot that starts along a corridor from a stop moves 0.8 m where the prediction
+        // says none: beyond the window (±0.3 m) and beyond ICP's reach of the frames. ICP from
+        // poses along the corridor axis reaches them.
+        let world = framed_corridor();
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(0.8, 0.0, 0.0);
+        let guess = Pose2::IDENTITY;
+        let off = TrackParams {
+            unobserved_reach_m: 0.0,
+            ..TrackParams::default()
+        };
+        let (stuck, verdict) = track_in(&world, &map, truth, guess, &off);
+        assert!(stuck.is_some_and(|r| r.map_from_robot.x_m.abs() < 0.05));
+        assert_eq!(verdict.reason, Reason::Degenerate);
+        let tracked = track_in(&world, &map, truth, guess, &TrackParams::default());
+        assert_near(&truth, &tracked);
+        assert!(tracked.1.search_won, "{:?}", tracked.1);
+    }
+
+    #[test]
+    fn alike_poses_along_the_axis_leave_the_step_unobserved() {
+        // Door frames every 1.2 m on both walls: ICP from the seeds reaches several places
+        // that fit alike, so none wins and the step stays on the anchor, `weak`.
+        let mut world = vec![seg(-30.0, -1.0, 30.0, -1.0), seg(-30.0, 1.0, 30.0, 1.0)];
+        for k in -10..=10 {
+            let x = 1.2 * k as f64;
+            world.push(seg(x, 1.0, x, 0.6));
+            world.push(seg(x, -1.0, x, -0.6));
+        }
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(0.6, 0.0, 0.0);
+        let (result, verdict) = track_in(
+            &world,
+            &map,
+            truth,
+            Pose2::IDENTITY,
+            &TrackParams::default(),
+        );
+        let x = result.expect("a pose").map_from_robot.x_m;
+        assert!(
+            x.abs() < 0.05 || verdict.verdict != Verdict::Ok,
+            "{x} {verdict:?}"
+        );
     }
 
     #[test]

@@ -99,6 +99,14 @@ pub struct TrackParams {
     /// points: a corridor's far frames out of ICP's robust reach are the only evidence of a
     /// step along it, and the margin is no test of evidence against none.
     pub search_unobserved: bool,
+    /// With `search_unobserved`: when neither ICP nor the window search observed the step
+    /// along the axis, ICP also runs from poses along the axis, every
+    /// [`crate::align::UNOBSERVED_SEED_STEP_M`] up to this far on either side of ICP's pose,
+    /// metres (0: off), and the pose that passes the same test wins, unless a distinct one
+    /// (more than `rival_apart_m` from it) passes too: a robot that starts along a corridor
+    /// from a stop, or a scan far apart from the last, moves beyond the window the prediction
+    /// gives.
+    pub unobserved_reach_m: f64,
     /// With the odometry prior, ICP also starts from the constant-velocity guess when it is
     /// farther than this from the odometry guess, metres...
     pub odometry_check_m: f64,
@@ -179,6 +187,7 @@ impl Default for TrackParams {
             weak_below_information: 5.0,
             search_win_margin: 0.1,
             search_unobserved: true,
+            unobserved_reach_m: 1.0,
             merge_doubtful_scans: true,
             odometry_check_m: 0.3,
             odometry_check_deg: 15.0,
@@ -246,6 +255,7 @@ impl TrackParams {
                 1e6,
             )
             .within("search_win_margin", self.search_win_margin, 0.0, 10.0)
+            .within("unobserved_reach_m", self.unobserved_reach_m, 0.0, 10.0)
             .within("odometry_check_m", self.odometry_check_m, 0.0, 1e3)
             .within("odometry_check_deg", self.odometry_check_deg, 0.0, 180.0)
             .within("rival_apart_m", self.rival_apart_m, 0.0, 100.0)

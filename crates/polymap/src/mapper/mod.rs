@@ -168,6 +168,10 @@ pub struct Mapper {
     search: Option<Box<GlobalSearch>>,
     last_pose: Option<Pose2>,
     prev_pose: Option<Pose2>,
+    /// The last observed motion (`mapper.keep_observed_velocity`), robot frame of the scan it
+    /// started from, and whether the last scan was observed in every direction.
+    observed_motion: Option<Pose2>,
+    last_observed: bool,
     last_odom: Option<Pose2>,
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
@@ -242,6 +246,8 @@ impl Mapper {
             search: None,
             last_pose: None,
             prev_pose: None,
+            observed_motion: None,
+            last_observed: false,
             last_odom: None,
             loops: LoopCloser::new(
                 config.loops.clone(),
@@ -454,11 +460,11 @@ impl Mapper {
         let i = self.scans;
         let t = self.first_scan.saturating_add(i);
         let clock = Instant::now();
-        let (guess, anchor) = self.guess(scan.odom_from_robot);
+        let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot);
         let placing = self.placement != Placement::Placed;
         let (align, tracking) = match placing {
             true => self.place(&scan),
-            false => self.align(&scan, guess, anchor),
+            false => self.align(&scan, guess, anchor, unobserved_to),
         };
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
@@ -479,9 +485,17 @@ impl Mapper {
         }
         let placed = self.placement == Placement::Placed;
         if placed {
+            // Observed: tracked `ok` with every direction observed; a motion between two
+            // observed scans is evidence of the robot's speed.
+            let observed =
+                tracking.verdict == Verdict::Ok && align.is_some_and(|a| a.weak_directions == 0);
             if let Some(last) = self.last_pose {
                 self.recent.push(&last, &pose);
+                if observed && self.last_observed {
+                    self.observed_motion = Some(last.between(&pose));
+                }
             }
+            self.last_observed = observed;
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
         }

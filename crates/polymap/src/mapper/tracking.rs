@@ -6,14 +6,16 @@
 use super::*;
 
 impl Mapper {
-    /// The first guess for the new scan's pose, and the anchor that directions ICP cannot
-    /// observe fall back to.
+    /// The first guess for the new scan's pose, the anchor ("no motion": the previous pose),
+    /// and the pose that directions ICP cannot observe fall back to, all map frame.
     ///
-    /// The constant-velocity guess seeds ICP; along directions ICP cannot observe, the pose
-    /// keeps `weak_direction_velocity` of the last motion (0: the previous pose, 1: the full
-    /// constant-velocity guess), so a spurious velocity in a featureless corridor fades instead
-    /// of running on. The odometry guess is evidence of motion and is its own anchor.
-    pub(super) fn guess(&self, odom_from_robot: Option<Pose2>) -> (Pose2, Pose2) {
+    /// The constant-velocity guess seeds ICP. With `keep_observed_velocity` (once a motion was
+    /// observed), the fallback is the previous pose moved by the last observed motion, and the
+    /// guess too when the last scan's own motion was not all observed; a motion taken from the
+    /// prior never feeds back, so it cannot run on by itself. Otherwise the fallback keeps
+    /// `weak_direction_velocity` of the last motion (0: the previous pose). The odometry guess
+    /// is evidence of motion and is its own anchor and fallback.
+    pub(super) fn guess(&self, odom_from_robot: Option<Pose2>) -> (Pose2, Pose2, Pose2) {
         let prior = self.config.mapper.motion_prior;
         let Some(last) = self.last_pose else {
             // The map frame: the first scan's pose, or odometry's frame when odometry is used.
@@ -21,25 +23,35 @@ impl Mapper {
                 (MotionPrior::Odometry, Some(odom)) => odom,
                 _ => Pose2::IDENTITY,
             };
-            return (first, first);
+            return (first, first, first);
         };
         match prior {
-            MotionPrior::Previous => (last, last),
+            MotionPrior::Previous => (last, last, last),
             MotionPrior::ConstantVelocity => {
                 let Some(prev) = self.prev_pose else {
-                    return (last, last);
+                    return (last, last, last);
                 };
                 let v = prev.between(&last);
-                let f = self.config.mapper.weak_direction_velocity.clamp(0.0, 1.0);
-                let damped = Pose2::new(v.x_m * f, v.y_m * f, v.theta_rad * f);
-                (last.compose(&v), last.compose(&damped))
+                match self.observed_motion {
+                    // The last scan's own motion was not all observed: the last observed
+                    // motion is the better prediction, and the fallback of the unobserved.
+                    Some(m) if self.config.mapper.keep_observed_velocity => {
+                        let predicted = if self.last_observed { v } else { m };
+                        (last.compose(&predicted), last, last.compose(&m))
+                    }
+                    _ => {
+                        let f = self.config.mapper.weak_direction_velocity.clamp(0.0, 1.0);
+                        let damped = Pose2::new(v.x_m * f, v.y_m * f, v.theta_rad * f);
+                        (last.compose(&v), last, last.compose(&damped))
+                    }
+                }
             }
             MotionPrior::Odometry => {
                 let g = match (self.last_odom, odom_from_robot) {
                     (Some(a), Some(b)) => last.compose(&a.between(&b)),
                     _ => last,
                 };
-                (g, g)
+                (g, g, g)
             }
         }
     }
@@ -51,6 +63,7 @@ impl Mapper {
         scan: &PreparedScan,
         guess: Pose2,
         anchor: Pose2,
+        unobserved_to: Pose2,
     ) -> (Option<AlignResult>, Tracking) {
         let constant_velocity = match (self.prev_pose, self.last_pose) {
             (Some(prev), Some(last)) => Some(last.compose(&prev.between(&last))),
@@ -63,6 +76,7 @@ impl Mapper {
             loose: &self.loose,
             guess,
             anchor,
+            unobserved_to,
             constant_velocity,
             recent: &self.recent,
             lost_streak: self.lost_streak,
