@@ -15,7 +15,7 @@
 //! On top of them, [`messages`] decodes `sensor_msgs/LaserScan` and `nav_msgs/Odometry` by
 //! hand ([`wire`]: ROS 1 serialization and CDR in both byte orders), [`scans`] turns a laser
 //! topic into [`RangeScan`](polymap::scan::RangeScan)s with odometry interpolated to each
-//! scan's stamp, and [`survey`] counts what a file holds. [`record`] writes scans as MCAP
+//! scan's stamp, and [`survey()`] counts what a file holds. [`record`] writes scans as MCAP
 //! files and bags (the simulator's ROS output).
 
 pub mod error;
