@@ -332,6 +332,7 @@ fn prepare(scan: RangeScan, config: &Config, keep: bool, read: Duration, bytes: 
         scan.odom_from_robot,
     );
     prepared.extract_s = clock.elapsed().as_secs_f64();
+    prepared.stamp_s = Some(scan.stamp.seconds).filter(|s| s.is_finite());
     Ready {
         stamp: scan.stamp,
         prepared,

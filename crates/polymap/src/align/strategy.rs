@@ -74,6 +74,10 @@ pub struct TrackInput<'a> {
     /// The pose that directions ICP cannot observe fall back to, map frame: the anchor, or the
     /// previous pose moved by the last observed motion (`mapper.keep_observed_velocity`).
     pub unobserved_to: Pose2,
+    /// The pose of the last scan tracked `ok`, map frame (the guess when there is none).
+    pub reference: Pose2,
+    /// Seconds since that scan, when both stamps are known and increase.
+    pub dt_s: Option<f64>,
     /// The constant-velocity prediction (the last pose moved by the last scan-to-scan motion),
     /// map frame, when there are two poses before; checked against the odometry guess with the
     /// odometry prior.
@@ -499,6 +503,20 @@ impl Tracker<'_> {
         Some(Vec2::new(axis.cos(), axis.sin()))
     }
 
+    /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
+    /// (`tracking.max_speed_m_s`, `max_turn_deg_s`, plus `reach_slack_m`, `reach_slack_deg`);
+    /// true when the stamps do not say (unknown, or not increasing).
+    fn within_reach(&self, pose: &Pose2) -> bool {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let Some(dt) = input.dt_s else {
+            return true;
+        };
+        let d = input.reference.between(pose);
+        d.translation().length() <= tracking.max_speed_m_s * dt + tracking.reach_slack_m
+            && normalize_angle_rad(d.theta_rad).abs().to_degrees()
+                <= tracking.max_turn_deg_s * dt + tracking.reach_slack_deg
+    }
+
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
     /// score above `current`'s pose; the best of them when it has `tracking.corner_win_ratio`
     /// times `current`'s inliers (plus two), at least `tracking.search_below_inlier_share` of
@@ -526,7 +544,11 @@ impl Tracker<'_> {
         let turned = |r: &AlignResult| {
             normalize_angle_rad(r.map_from_robot.theta_rad - input.guess.theta_rad).abs()
         };
-        let best = best_of(all.iter().copied().filter(|r| turned(r) <= max_turn))?;
+        let best = best_of(
+            all.iter()
+                .copied()
+                .filter(|r| turned(r) <= max_turn && self.within_reach(&r.map_from_robot)),
+        )?;
         // A pose away from the prediction needs more evidence than one near it: half again
         // the inliers, a fit that would need no search, and no distinct pose nearly as good
         // (a building of alike rooms fits a scan turned by a right angle almost as well).
@@ -745,6 +767,8 @@ mod tests {
             guess,
             anchor: guess,
             unobserved_to: guess,
+            reference: guess,
+            dt_s: None,
             constant_velocity: None,
             recent: &recent,
             lost_streak,
@@ -900,6 +924,27 @@ mod tests {
     /// A bare rectangular room fits the scan turned by half a turn about its centre as well as
     /// at the truth: the hypotheses find both poses, each would win on its own, and neither
     /// is taken.
+    #[test]
+    fn a_corner_pose_wins_only_within_reach_in_the_time_between_scans() {
+        // The corner pose of the test above is 2.2 m and 70° from the last `ok` pose (here the
+        // guess): out of reach 0.1 s later (a robot at rest that fits a turned place better:
+        // Intel, one variant, put a standing robot 1.1 m and 93° away and closed a wrong loop
+        // from there), within reach 2 s later or when the stamps do not say.
+        let world = unlike_room();
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
+        let guess = Pose2::new(4.0, 3.0, 0.0);
+        let scene = (&world[..], &map, truth, guess, 0);
+        let tracking = TrackParams::default();
+        for (dt_s, wins) in [(Some(0.1), false), (Some(2.0), true), (None, true)] {
+            with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
+                let input = TrackInput { dt_s, ..*t.input };
+                let (_, verdict) = track_scan(&input, t.config);
+                assert_eq!(verdict.corner_won, wins, "dt {dt_s:?}: {verdict:?}");
+            });
+        }
+    }
+
     #[test]
     fn a_symmetric_room_gives_no_corner_pose() {
         let world = [

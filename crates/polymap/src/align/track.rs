@@ -156,6 +156,15 @@ pub struct TrackParams {
     /// Only segments at least this long form corners, metres (a scan's segments are short:
     /// clutter and door frames cut its walls).
     pub corner_min_segment_m: f64,
+    /// A corner pose wins only within reach of the last `ok` pose in the time since that scan
+    /// (when the stamps say it, increasing): at most this speed, m/s...
+    pub max_speed_m_s: f64,
+    /// ...and this turn rate, degrees per second...
+    pub max_turn_deg_s: f64,
+    /// ...plus this much, metres (that pose's own error)...
+    pub reach_slack_m: f64,
+    /// ...and this, degrees.
+    pub reach_slack_deg: f64,
 }
 
 impl Default for TrackParams {
@@ -203,6 +212,10 @@ impl Default for TrackParams {
             corner_win_ratio: 1.5,
             corner_rival_below: 0.85,
             corner_min_segment_m: 0.3,
+            max_speed_m_s: 2.0,
+            max_turn_deg_s: 120.0,
+            reach_slack_m: 0.3,
+            reach_slack_deg: 20.0,
         }
     }
 }
@@ -278,6 +291,10 @@ impl TrackParams {
                 0.0,
                 100.0,
             )
+            .above("max_speed_m_s", self.max_speed_m_s, 0.0, 1e3)
+            .above("max_turn_deg_s", self.max_turn_deg_s, 0.0, 1e5)
+            .within("reach_slack_m", self.reach_slack_m, 0.0, 1e3)
+            .within("reach_slack_deg", self.reach_slack_deg, 0.0, 360.0)
             .done()
     }
 }

@@ -95,6 +95,8 @@ pub struct PreparedScan {
     pub segments_in_robot: Vec<Segment>,
     /// The robot's odometry pose at scan time, odometry frame, if the log carries one.
     pub odom_from_robot: Option<Pose2>,
+    /// The scan's stamp, seconds, when known (finite).
+    pub stamp_s: Option<f64>,
     /// Wall-clock seconds the preparation took.
     pub extract_s: f64,
 }
@@ -173,6 +175,8 @@ pub struct Mapper {
     observed_motion: Option<Pose2>,
     last_observed: bool,
     last_odom: Option<Pose2>,
+    /// The last scan tracked `ok`: its index (the map's numbering), pose and stamp.
+    last_ok: Option<(u32, Pose2, Option<f64>)>,
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
     loose: LoosePoints,
@@ -249,6 +253,7 @@ impl Mapper {
             observed_motion: None,
             last_observed: false,
             last_odom: None,
+            last_ok: None,
             loops: LoopCloser::new(
                 config.loops.clone(),
                 config.align.clone(),
@@ -420,6 +425,7 @@ impl Mapper {
             scan.odom_from_robot,
         );
         prepared.extract_s = clock.elapsed().as_secs_f64();
+        prepared.stamp_s = Some(scan.stamp.seconds).filter(|s| s.is_finite());
         prepared
     }
 
@@ -451,6 +457,7 @@ impl Mapper {
             points_in_robot,
             segments_in_robot: segments,
             odom_from_robot,
+            stamp_s: None,
             extract_s: clock.elapsed().as_secs_f64(),
         }
     }
@@ -498,6 +505,9 @@ impl Mapper {
             self.last_observed = observed;
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
+            if tracking.verdict == Verdict::Ok {
+                self.last_ok = Some((t, pose, scan.stamp_s));
+            }
         }
         self.verdicts.count(i, tracking.verdict, tracking.reason);
         self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
@@ -635,6 +645,9 @@ impl Mapper {
         self.prev_pose = self
             .prev_pose
             .map(|p| delta(t.saturating_sub(1)).compose(&p));
+        self.last_ok = self
+            .last_ok
+            .map(|(i, p, stamp)| (i, delta(i).compose(&p), stamp));
     }
 }
 

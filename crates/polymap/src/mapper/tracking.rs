@@ -65,6 +65,7 @@ impl Mapper {
         anchor: Pose2,
         unobserved_to: Pose2,
     ) -> (Option<AlignResult>, Tracking) {
+        let (reference, dt_s) = reach_reference(self.last_ok, scan.stamp_s, guess);
         let constant_velocity = match (self.prev_pose, self.last_pose) {
             (Some(prev), Some(last)) => Some(last.compose(&prev.between(&last))),
             _ => None,
@@ -77,6 +78,8 @@ impl Mapper {
             guess,
             anchor,
             unobserved_to,
+            reference,
+            dt_s,
             constant_velocity,
             recent: &self.recent,
             lost_streak: self.lost_streak,
@@ -87,5 +90,45 @@ impl Mapper {
             starts: &self.config.mapper,
         };
         track_scan(&input, &config)
+    }
+}
+
+/// The pose a scan's motion is bounded from, and the seconds since it: the last `ok` pose is
+/// where the robot was for sure, and the time since then bounds how far it can be now, when
+/// the stamps say it (both known, increasing); otherwise `fallback` and no bound.
+fn reach_reference(
+    last_ok: Option<(u32, Pose2, Option<f64>)>,
+    stamp_s: Option<f64>,
+    fallback: Pose2,
+) -> (Pose2, Option<f64>) {
+    match (last_ok, stamp_s) {
+        (Some((_, pose, Some(a))), Some(b)) if b > a => (pose, Some(b - a)),
+        _ => (fallback, None),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reach_is_bounded_only_when_the_stamps_increase() {
+        let ok = Pose2::new(1.0, 2.0, 0.3);
+        let fallback = Pose2::IDENTITY;
+        let at = |stamp: Option<f64>| Some((7, ok, stamp));
+        assert_eq!(
+            reach_reference(at(Some(10.0)), Some(10.25), fallback),
+            (ok, Some(0.25))
+        );
+        // Bunched, reordered or missing stamps say nothing about the time.
+        for (last, now) in [
+            (Some(10.0), Some(10.0)),
+            (Some(10.0), Some(9.0)),
+            (None, Some(1.0)),
+            (Some(1.0), None),
+        ] {
+            assert_eq!(reach_reference(at(last), now, fallback), (fallback, None));
+        }
+        assert_eq!(reach_reference(None, Some(1.0), fallback), (fallback, None));
     }
 }
