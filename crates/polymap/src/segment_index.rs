@@ -27,7 +27,7 @@ use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{AABB, RTree};
 use rustc_hash::FxHashMap;
 
-use crate::geometry::{Segment, SegmentProjection, Vec2};
+use crate::geometry::{Segment, SegmentProjection, Vec2, floor_i64};
 
 /// Cell coordinates: `i64`, so that any coordinate a log can hold (up to about 4e18 m at the
 /// default cell size) still indexes.
@@ -185,10 +185,7 @@ impl<K: Copy + Ord> SegmentIndex<K> {
     }
 
     fn cell_of(&self, p: Vec2) -> Cell {
-        (
-            (p.x / self.cell_m).floor() as i64,
-            (p.y / self.cell_m).floor() as i64,
-        )
+        (floor_i64(p.x / self.cell_m), floor_i64(p.y / self.cell_m))
     }
 
     /// The cells a segment is listed in: those whose centre lies within reach plus half a cell

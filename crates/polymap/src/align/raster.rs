@@ -6,7 +6,7 @@
 //! points that form no segment (pillars, corners, door frames): a map of segments alone would
 //! not see them, and in a bare corridor they are what fixes the position along it.
 
-use crate::geometry::{Segment, Vec2};
+use crate::geometry::{Segment, Vec2, floor_i64};
 
 impl Drop for ScoreRaster {
     fn drop(&mut self) {
@@ -157,7 +157,7 @@ impl ScoreRaster {
     pub fn cell_of(&self, p: Vec2) -> (i64, i64) {
         let q = (p - self.origin) / self.cell_m;
         // Saturating casts: NaN gives 0, far points stay far outside.
-        (q.x.floor() as i64, q.y.floor() as i64)
+        (floor_i64(q.x), floor_i64(q.y))
     }
 
     /// The value of cell `(x, y)`; 0 outside the raster.
