@@ -21,9 +21,15 @@
 //!    [`search_window`], or the whole map every `tracking.relocalize_every_lost` scans lost in
 //!    a row; ICP from its best pose replaces ICP from the starts only with
 //!    `tracking.search_win_margin` more inliers (plus two). Without odometry, a pose ICP put
-//!    on the anchor along a direction it could not observe is searched too, and the search's
+//!    on its fallback (`TrackInput::unobserved_to`: the previous pose, or moved by the last
+//!    observed motion) along a direction it could not observe is searched too, and the search's
 //!    pose wins when ICP from it observes every direction with at least as many inliers
-//!    (`tracking.search_unobserved`: evidence against none).
+//!    (`tracking.search_unobserved`: evidence against none); when it does not, ICP from
+//!    poses along that direction up to `tracking.unobserved_reach_m` either side may win by
+//!    the same test, unless two distinct ones pass ([`Tracker::along_unobserved`]). A pose
+//!    ICP observed along a direction only weakly, more than [`PRIOR_OVER_WEAK_M`] from the
+//!    fallback, is replaced by ICP from the fallback when that fits as well
+//!    ([`Tracker::prior_over_weak`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
 //!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
@@ -33,7 +39,8 @@
 //!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
 //!    from another hypothesis has `tracking.corner_rival_below` of its inliers; with the
 //!    odometry prior only a pose turned at most `tracking.max_window_deg` from the odometry
-//!    guess may win (any may veto).
+//!    guess may win (any may veto); with point-to-segment ICP only a pose within reach of the
+//!    last `ok` pose in the time the stamps give ([`Tracker::within_reach`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]), or when ICP from the search's pose and from the starts
@@ -488,7 +495,8 @@ impl Tracker<'_> {
         }
     }
 
-    /// The map-frame axis (unit vector) along which ICP put `result` on the anchor for want of
+    /// The map-frame axis (unit vector) along which ICP put `result` on its fallback
+    /// (`TrackInput::unobserved_to`) for want of
     /// information, when the rule of `tracking.search_unobserved` applies: tracking (nothing
     /// lost before), the window search on, and no odometry prior (whose guess is evidence of
     /// the motion). `None` when every translation was observed, or only the rotation was not.
@@ -505,10 +513,12 @@ impl Tracker<'_> {
 
     /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
     /// (`tracking.max_speed_m_s`, `max_turn_deg_s`, plus `reach_slack_m`, `reach_slack_deg`);
-    /// true when the stamps do not say (unknown, or not increasing).
+    /// true when the stamps do not say (unknown, or not increasing), and with endpoint ICP
+    /// (`--preset paper` stays as it was).
     fn within_reach(&self, pose: &Pose2) -> bool {
         let (input, tracking) = (self.input, self.config.tracking);
-        let Some(dt) = input.dt_s else {
+        let point_to_segment = self.config.align.method == AlignMethod::PointToSegment;
+        let Some(dt) = input.dt_s.filter(|_| point_to_segment) else {
             return true;
         };
         let d = input.reference.between(pose);
@@ -921,9 +931,6 @@ mod tests {
         assert!(!tracking.corner_won, "{tracking:?}");
     }
 
-    /// A bare rectangular room fits the scan turned by half a turn about its centre as well as
-    /// at the truth: the hypotheses find both poses, each would win on its own, and neither
-    /// is taken.
     #[test]
     fn a_corner_pose_wins_only_within_reach_in_the_time_between_scans() {
         // The corner pose of the test above is 2.2 m and 70° from the last `ok` pose (here the
@@ -945,6 +952,9 @@ mod tests {
         }
     }
 
+    /// A bare rectangular room fits the scan turned by half a turn about its centre as well as
+    /// at the truth: the hypotheses find both poses, each would win on its own, and neither
+    /// is taken.
     #[test]
     fn a_symmetric_room_gives_no_corner_pose() {
         let world = [
@@ -1129,7 +1139,8 @@ mod tests {
     #[test]
     fn alike_poses_along_the_axis_leave_the_step_unobserved() {
         // Door frames every 1.2 m on both walls: ICP from the seeds reaches several places
-        // that fit alike, so none wins and the step stays on the anchor, `weak`.
+        // that fit alike, so none wins and the step stays on the fallback (here the guess),
+        // `weak`.
         let mut world = vec![seg(-30.0, -1.0, 30.0, -1.0), seg(-30.0, 1.0, 30.0, 1.0)];
         for k in -10..=10 {
             let x = 1.2 * k as f64;

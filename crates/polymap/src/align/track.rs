@@ -89,7 +89,7 @@ pub struct TrackParams {
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
     /// While tracking (no scan lost just before) with `window_search` on and without the
-    /// odometry prior: a scan whose ICP pose was put on the anchor along an axis ICP could not
+    /// odometry prior: a scan whose ICP pose was put on its fallback along an axis ICP could not
     /// observe (no evidence of the motion along it) is searched whatever the predicted motion,
     /// in the usual window, and the search's pose wins without `search_win_margin` when ICP
     /// from it observes every direction (translation information at least
@@ -102,7 +102,8 @@ pub struct TrackParams {
     /// With `search_unobserved`: when neither ICP nor the window search observed the step
     /// along the axis, ICP also runs from poses along the axis, every
     /// [`crate::align::UNOBSERVED_SEED_STEP_M`] up to this far on either side of ICP's pose,
-    /// metres (0: off), and the pose that passes the same test wins, unless a distinct one
+    /// metres (0: off; else at least one step and at most 3 m: up to 24 ICP runs per such
+    /// scan), and the pose that passes the same test wins, unless a distinct one
     /// (more than `rival_apart_m` from it) passes too: a robot that starts along a corridor
     /// from a stop, or a scan far apart from the last, moves beyond the window the prediction
     /// gives.
@@ -268,7 +269,17 @@ impl TrackParams {
                 1e6,
             )
             .within("search_win_margin", self.search_win_margin, 0.0, 10.0)
-            .within("unobserved_reach_m", self.unobserved_reach_m, 0.0, 10.0)
+            .within("unobserved_reach_m", self.unobserved_reach_m, 0.0, 3.0)
+            .rule(
+                "unobserved_reach_m",
+                self.unobserved_reach_m == 0.0
+                    || self.unobserved_reach_m >= crate::align::UNOBSERVED_SEED_STEP_M,
+                self.unobserved_reach_m,
+                format_args!(
+                    "0 (off) or at least {} m",
+                    crate::align::UNOBSERVED_SEED_STEP_M
+                ),
+            )
             .within("odometry_check_m", self.odometry_check_m, 0.0, 1e3)
             .within("odometry_check_deg", self.odometry_check_deg, 0.0, 180.0)
             .within("rival_apart_m", self.rival_apart_m, 0.0, 100.0)
@@ -706,6 +717,21 @@ impl LoosePoints {
 mod tests {
     use super::*;
     use crate::align::TranslationInformation;
+
+    #[test]
+    fn the_reach_along_an_unobserved_axis_is_off_or_at_least_one_step_and_bounded() {
+        let with = |unobserved_reach_m| TrackParams {
+            unobserved_reach_m,
+            ..TrackParams::default()
+        };
+        for ok in [0.0, 0.25, 1.0, 3.0] {
+            assert!(with(ok).validate().is_ok(), "{ok}");
+        }
+        for bad in [0.1, -1.0, 3.5, f64::NAN] {
+            let e = with(bad).validate().expect_err("refused");
+            assert_eq!(e.key, "unobserved_reach_m", "{bad}");
+        }
+    }
 
     #[test]
     fn lost_doubtful_and_unsure_corner_scans_stay_out_of_the_map() {

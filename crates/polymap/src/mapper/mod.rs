@@ -170,10 +170,8 @@ pub struct Mapper {
     search: Option<Box<GlobalSearch>>,
     last_pose: Option<Pose2>,
     prev_pose: Option<Pose2>,
-    /// The last observed motion (`mapper.keep_observed_velocity`), robot frame of the scan it
-    /// started from, and whether the last scan was observed in every direction.
-    observed_motion: Option<Pose2>,
-    last_observed: bool,
+    /// The last observed motion (`mapper.keep_observed_velocity`).
+    observed: ObservedSpeed,
     last_odom: Option<Pose2>,
     /// The last scan tracked `ok`: its index (the map's numbering), pose and stamp.
     last_ok: Option<(u32, Pose2, Option<f64>)>,
@@ -250,8 +248,7 @@ impl Mapper {
             search: None,
             last_pose: None,
             prev_pose: None,
-            observed_motion: None,
-            last_observed: false,
+            observed: ObservedSpeed::default(),
             last_odom: None,
             last_ok: None,
             loops: LoopCloser::new(
@@ -498,11 +495,10 @@ impl Mapper {
                 tracking.verdict == Verdict::Ok && align.is_some_and(|a| a.weak_directions == 0);
             if let Some(last) = self.last_pose {
                 self.recent.push(&last, &pose);
-                if observed && self.last_observed {
-                    self.observed_motion = Some(last.between(&pose));
-                }
             }
-            self.last_observed = observed;
+            let step = self.last_pose.map(|last| last.between(&pose));
+            self.observed
+                .record(step, observed && !tracking.corner_won, scan.stamp_s);
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
             if tracking.verdict == Verdict::Ok {
@@ -645,9 +641,12 @@ impl Mapper {
         self.prev_pose = self
             .prev_pose
             .map(|p| delta(t.saturating_sub(1)).compose(&p));
-        self.last_ok = self
-            .last_ok
-            .map(|(i, p, stamp)| (i, delta(i).compose(&p), stamp));
+        // A pose older than the first node the correction moves stays (`delta` would give it
+        // the newest node's correction).
+        self.last_ok = self.last_ok.map(|(i, p, stamp)| match i >= first_scan {
+            true => (i, delta(i).compose(&p), stamp),
+            false => (i, p, stamp),
+        });
     }
 }
 
@@ -656,3 +655,4 @@ mod placement;
 #[cfg(test)]
 mod tests;
 mod tracking;
+use tracking::ObservedSpeed;
