@@ -28,10 +28,15 @@ pub struct TrackParams {
     pub window_search: bool,
     /// Search when the predicted motion between scans is longer than this, metres...
     pub search_above_step_m: f64,
-    /// ...or turns more than this, degrees...
+    /// ...or turns more than this, degrees (either only while ICP's pose from the prediction
+    /// fits under `search_skip_above_inlier_share` of the points)...
     pub search_above_turn_deg: f64,
     /// ...or when fewer than this share of the (thinned) scan points are ICP inliers.
     pub search_below_inlier_share: f64,
+    /// A large predicted step or turn is no reason to search when ICP's pose fits at least this
+    /// share of the (thinned) scan points (above 1.1: always a reason; ICP's share may exceed 1
+    /// a little, see [`Tracking::inlier_share`]).
+    pub search_skip_above_inlier_share: f64,
     /// Half-width of the smallest translation window, metres.
     pub min_window_m: f64,
     /// Half-width of the largest translation window while tracking, metres.
@@ -175,6 +180,7 @@ impl Default for TrackParams {
             search_above_step_m: 0.2,
             search_above_turn_deg: 12.0,
             search_below_inlier_share: 0.5,
+            search_skip_above_inlier_share: 0.9,
             min_window_m: 0.3,
             max_window_m: 1.0,
             min_window_deg: 15.0,
@@ -233,6 +239,12 @@ impl TrackParams {
                 360.0,
             )
             .share("search_below_inlier_share", self.search_below_inlier_share)
+            .within(
+                "search_skip_above_inlier_share",
+                self.search_skip_above_inlier_share,
+                0.0,
+                10.0,
+            )
             .within("min_window_m", self.min_window_m, 0.0, 10.0)
             .within("max_window_m", self.max_window_m, self.min_window_m, 10.0)
             .within("min_window_deg", self.min_window_deg, 0.0, 180.0)
@@ -400,8 +412,8 @@ impl Tracking {
 }
 
 /// Whether the window search should run: large motion (predicted, or of any of the last few
-/// scans: a robot that moves far per scan may stop or turn at any scan), a poor fit, or lost
-/// before.
+/// scans: a robot that moves far per scan may stop or turn at any scan) unless ICP's pose fits
+/// at least `search_skip_above_inlier_share` of the points, a poor fit, or lost before.
 pub fn should_search(
     prediction: &Pose2,
     anchor: &Pose2,
@@ -421,9 +433,9 @@ pub fn should_search(
         .to_degrees()
         .max(recent.turn_deg());
     let share = icp.map_or(0.0, |r| r.inliers as f64 / thinned_points as f64);
+    let moved = step_m > params.search_above_step_m || turn_deg > params.search_above_turn_deg;
     lost_streak > 0
-        || step_m > params.search_above_step_m
-        || turn_deg > params.search_above_turn_deg
+        || (moved && share < params.search_skip_above_inlier_share)
         || share < params.search_below_inlier_share
 }
 
@@ -778,7 +790,7 @@ mod tests {
             map_from_robot: anchor,
             iterations: 3,
             correspondences: 10,
-            inliers: 9,
+            inliers: 8,
             residual_rms_m: 0.01,
             converged: true,
             weak_directions: 0,
@@ -807,6 +819,34 @@ mod tests {
             10,
             0,
             &p
+        ));
+        // ...but not when ICP's pose fits nearly every point (`search_skip_above_inlier_share`),
+        // unless that is off.
+        let sure = AlignResult {
+            inliers: 10,
+            ..good
+        };
+        assert!(!should_search(
+            &fast,
+            &anchor,
+            &recent,
+            Some(&sure),
+            10,
+            0,
+            &p
+        ));
+        let always = TrackParams {
+            search_skip_above_inlier_share: 10.0,
+            ..p
+        };
+        assert!(should_search(
+            &fast,
+            &anchor,
+            &recent,
+            Some(&sure),
+            10,
+            0,
+            &always
         ));
     }
 
