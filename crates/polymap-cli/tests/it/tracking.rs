@@ -133,7 +133,7 @@ fn corridor_ends_are_accurate() {
 /// The whole run's ATE in the simulated corridor, without odometry, metres: its bare middle
 /// (about 30 m) is driven at the speed last observed (`mapper.keep_observed_velocity`); before
 /// that, at no motion along the corridor, the run came out 10 m short (ATE 10.0-10.3 m at K =
-/// 1, 5, 10; now 0.53 / 0.38 / 0.11 m).
+/// 1, 5, 10; now 0.53 / 0.25 / 0.11 m).
 const CORRIDOR_ATE_M: f64 = 1.0;
 
 #[test]
@@ -303,7 +303,7 @@ fn faulty_odometry_does_not_make_the_odometry_prior_much_worse_than_none() {
 /// missed, listed so that every other run stays checked: in the simulated corridor's bare
 /// middle the faulty odometry is the only evidence of the motion along it, and nothing
 /// checks it there, while the run without odometry drives it at the speed last observed
-/// since session 11 (ATE with / without: K = 5 1.06 / 0.38 m, K = 10 1.09 / 0.11 m; both
+/// since session 11 (ATE with / without: K = 5 1.06 / 0.25 m, K = 10 1.09 / 0.11 m; both
 /// about 10 m without odometry before).
 const KNOWN_ODOMETRY_MISSES: [(&str, usize); 2] = [("corridor", 5), ("corridor", 10)];
 
