@@ -330,9 +330,9 @@ fn prepare(scan: RangeScan, config: &Config, keep: bool, read: Duration, bytes: 
         scan.angle_increment_rad,
         scan.is_full_circle(),
         scan.odom_from_robot,
+        scan.stamp.seconds,
     );
     prepared.extract_s = clock.elapsed().as_secs_f64();
-    prepared.stamp_s = Some(scan.stamp.seconds).filter(|s| s.is_finite());
     Ready {
         stamp: scan.stamp,
         prepared,

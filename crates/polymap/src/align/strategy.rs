@@ -203,6 +203,16 @@ fn fits_nearly_as_well(other: &AlignResult, kept: &AlignResult, tracking: &Track
         && other.inliers as f64 >= tracking.ambiguous_above * kept.inliers as f64
 }
 
+/// Whether `other` lies within [`UNOBSERVED_ACROSS_M`] of `result` across `axis` (map frame,
+/// unit vector) and within [`UNOBSERVED_TURN_DEG`] of its heading: it agrees with `result` in
+/// the directions `result` observed, and differs, if at all, along the axis.
+fn agrees_across(other: &AlignResult, result: &AlignResult, axis: Vec2) -> bool {
+    let moved = other.map_from_robot.translation() - result.map_from_robot.translation();
+    let turned = other.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
+    moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
+        && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians()
+}
+
 /// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
 /// far as the window search may while tracking (`tracking.max_window_deg`): its guess carries
 /// the turn, and a bad odometry turn is off by tens of degrees, not half a turn; a corridor's
@@ -363,9 +373,9 @@ impl Tracker<'_> {
     fn prior_over_weak(&self, result: &AlignResult) -> Option<AlignResult> {
         let (input, tracking) = (self.input, self.config.tracking);
         let info = result.translation_information;
-        let on = self.config.starts.keep_observed_velocity
-            && self.config.starts.motion_prior == MotionPrior::ConstantVelocity
-            && input.lost_streak == 0
+        // The fallback differs from "no motion" only with the constant-velocity prior and
+        // `mapper.keep_observed_velocity`, once a motion was observed.
+        let on = input.lost_streak == 0
             && input.unobserved_to != input.anchor
             && result.weak_directions == 0
             && info.weakest < tracking.weak_below_information;
@@ -379,12 +389,7 @@ impl Tracker<'_> {
             return None;
         }
         let prior = self.run_near(input.unobserved_to);
-        let moved = prior.map_from_robot.translation() - result.map_from_robot.translation();
-        let turned = prior.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
-        (prior.inliers >= result.inliers
-            && moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
-            && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians())
-        .then_some(prior)
+        (prior.inliers >= result.inliers && agrees_across(&prior, result, axis)).then_some(prior)
     }
 
     /// Whether ICP's pose `searched` is evidence of the step along `axis` that ICP's pose
@@ -393,12 +398,9 @@ impl Tracker<'_> {
     /// points.
     fn evidence_along(&self, searched: &AlignResult, result: &AlignResult, axis: Vec2) -> bool {
         let tracking = self.config.tracking;
-        let moved = searched.map_from_robot.translation() - result.map_from_robot.translation();
-        let turned = searched.map_from_robot.theta_rad - result.map_from_robot.theta_rad;
         searched.weak_directions == 0
             && searched.translation_information.weakest >= tracking.weak_below_information
-            && moved.perp_dot(axis).abs() <= UNOBSERVED_ACROSS_M
-            && normalize_angle_rad(turned).abs() <= UNOBSERVED_TURN_DEG.to_radians()
+            && agrees_across(searched, result, axis)
             && searched.inliers >= result.inliers
     }
 
@@ -900,15 +902,20 @@ mod tests {
         ]
     }
 
-    /// 2.2 m and 70° away in a room of walls at unlike angles, beyond the window search
-    /// (±0.3 m from a guess of no motion) and the recovery (1 m): ICP fits poorly there, and
-    /// a corner of the scan matched to one of the map finds the pose.
-    #[test]
-    fn a_motion_beyond_the_window_is_found_by_corner_hypotheses() {
-        let world = unlike_room();
+    /// The room of [`unlike_room`], its map, a truth and a guess 2.2 m and 70° from it, beyond
+    /// the window search (±0.3 m from a guess of no motion) and the recovery (1 m).
+    fn beyond_the_window() -> (Vec<Segment>, GlobalMap, Pose2, Pose2) {
+        let world = unlike_room().to_vec();
         let map = map_of(&world, 0.5);
         let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
-        let guess = Pose2::new(4.0, 3.0, 0.0);
+        (world, map, truth, Pose2::new(4.0, 3.0, 0.0))
+    }
+
+    /// ICP fits poorly [`beyond_the_window`], and a corner of the scan matched to one of the
+    /// map finds the pose.
+    #[test]
+    fn a_motion_beyond_the_window_is_found_by_corner_hypotheses() {
+        let (world, map, truth, guess) = beyond_the_window();
         let found = track_in(&world, &map, truth, guess, &TrackParams::default());
         assert_near(&truth, &found);
         assert!(found.1.corner_won, "{:?}", found.1);
@@ -937,10 +944,7 @@ mod tests {
         // guess): out of reach 0.1 s later (a robot at rest that fits a turned place better:
         // Intel, one variant, put a standing robot 1.1 m and 93° away and closed a wrong loop
         // from there), within reach 2 s later or when the stamps do not say.
-        let world = unlike_room();
-        let map = map_of(&world, 0.5);
-        let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
-        let guess = Pose2::new(4.0, 3.0, 0.0);
+        let (world, map, truth, guess) = beyond_the_window();
         let scene = (&world[..], &map, truth, guess, 0);
         let tracking = TrackParams::default();
         for (dt_s, wins) in [(Some(0.1), false), (Some(2.0), true), (None, true)] {

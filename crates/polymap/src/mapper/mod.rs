@@ -420,23 +420,25 @@ impl Mapper {
             scan.angle_increment_rad,
             scan.is_full_circle(),
             scan.odom_from_robot,
+            scan.stamp.seconds,
         );
         prepared.extract_s = clock.elapsed().as_secs_f64();
-        prepared.stamp_s = Some(scan.stamp.seconds).filter(|s| s.is_finite());
         prepared
     }
 
     /// [`Mapper::prepare`] for a scan already converted to points: `points_in_robot` are its
     /// valid returns in beam order (robot frame, metres, as [`RangeScan::points_in_robot`]
     /// gives them), `angle_increment_rad` its beam step, `closed` whether the scan goes all the
-    /// way round ([`RangeScan::is_full_circle`]: its last point neighbours its first). For
-    /// callers that keep the points for something else too, so the ranges are converted once.
+    /// way round ([`RangeScan::is_full_circle`]: its last point neighbours its first),
+    /// `stamp_s` its stamp in seconds (kept when finite). For callers that keep the points for
+    /// something else too, so the ranges are converted once.
     pub fn prepare_points(
         config: &Config,
         mut points_in_robot: Vec<Vec2>,
         angle_increment_rad: f64,
         closed: bool,
         odom_from_robot: Option<Pose2>,
+        stamp_s: f64,
     ) -> PreparedScan {
         let clock = Instant::now();
         let max_range_2 = config.extract.max_range_m.powi(2);
@@ -454,7 +456,7 @@ impl Mapper {
             points_in_robot,
             segments_in_robot: segments,
             odom_from_robot,
-            stamp_s: None,
+            stamp_s: Some(stamp_s).filter(|s| s.is_finite()),
             extract_s: clock.elapsed().as_secs_f64(),
         }
     }

@@ -104,8 +104,10 @@ pub(super) struct ObservedSpeed {
     motion: Option<Pose2>,
     last_observed: bool,
     last_stamp_s: Option<f64>,
-    /// The recent positive time steps, seconds (a ring of [`TYPICAL_DT_STEPS`]).
-    dts: Vec<f64>,
+    /// The recent positive time steps, seconds: a ring of [`TYPICAL_DT_STEPS`], the first
+    /// `filled` valid, the next written at `next`.
+    dts: [f64; TYPICAL_DT_STEPS],
+    filled: usize,
     next: usize,
 }
 
@@ -131,12 +133,9 @@ impl ObservedSpeed {
             self.motion = Some(step);
         }
         if let Some(dt) = dt {
-            if self.dts.len() < TYPICAL_DT_STEPS {
-                self.dts.push(dt);
-            } else {
-                self.dts[self.next] = dt;
-            }
+            self.dts[self.next] = dt;
             self.next = (self.next + 1) % TYPICAL_DT_STEPS;
+            self.filled = (self.filled + 1).min(TYPICAL_DT_STEPS);
         }
         self.last_observed = observed;
         self.last_stamp_s = stamp_s;
@@ -144,11 +143,12 @@ impl ObservedSpeed {
 
     /// The median of the recent time steps, once there are a third of the ring.
     fn typical_dt_s(&self) -> Option<f64> {
-        if self.dts.len() < TYPICAL_DT_STEPS / 3 {
+        if self.filled < TYPICAL_DT_STEPS / 3 {
             return None;
         }
-        let mut sorted = self.dts.clone();
-        sorted.sort_by(f64::total_cmp);
+        let mut sorted = self.dts;
+        let sorted = &mut sorted[..self.filled];
+        sorted.sort_unstable_by(f64::total_cmp);
         Some(sorted[sorted.len() / 2])
     }
 }
