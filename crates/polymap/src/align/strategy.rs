@@ -459,11 +459,34 @@ impl Tracker<'_> {
             .flatten()
         {
             Some(w) => w,
-            None => search_window(&guess, &anchor, lost_streak, tracking),
+            None => {
+                // ICP's pose fits poorly: the robot may have moved on at its recent speed
+                // after a stop, or turned as it did lately, beyond the prediction's window.
+                let share = result.inliers as f64 / self.points.len().max(1) as f64;
+                let none = RecentMotion::default();
+                let recent = match share < tracking.search_below_inlier_share {
+                    true => input.recent,
+                    false => &none,
+                };
+                search_window(&guess, &anchor, recent, lost_streak, tracking)
+            }
         };
+        self.search_in(&window, result, unobserved)
+    }
+
+    /// The window search in `window` and ICP from its best pose against ICP's `result` from
+    /// the starts: the search's pose wins by `tracking.search_win_margin`, or by evidence
+    /// along the `unobserved` axis.
+    fn search_in(
+        &self,
+        window: &SearchWindow,
+        result: AlignResult,
+        unobserved: Option<Vec2>,
+    ) -> Aligned {
+        let (input, tracking) = (self.input, self.config.tracking);
         let loose = input.loose.all();
         let seed = Some(result.map_from_robot);
-        let Some(found) = window_search(input.map, &loose, self.points, &window, seed, tracking)
+        let Some(found) = window_search(input.map, &loose, self.points, window, seed, tracking)
         else {
             return Aligned::icp(Some(result));
         };
@@ -936,6 +959,44 @@ mod tests {
         };
         let (_, tracking) = track_in(&world, &map, truth, guess, &stricter);
         assert!(!tracking.corner_won, "{tracking:?}");
+    }
+
+    /// A robot that stood for a scan (the prediction: no motion) and then moved on as it did
+    /// before: [`beyond_the_window`]'s 2.2 m and 70°, with a window of at most 2.5 m, and no
+    /// corner hypotheses. ICP fits poorly; the prediction's window (±0.3 m, ±15°) misses the
+    /// pose, the window of the recent motion (`tracking.window_per_recent`) finds it.
+    #[test]
+    fn a_robot_moving_on_after_a_stop_is_found_in_the_window_of_its_recent_motion() {
+        let (world, map, truth, guess) = beyond_the_window();
+        let mut moving = RecentMotion::default();
+        moving.push(&guess, &truth);
+        let without_corners = TrackParams {
+            corner_hypotheses: false,
+            max_window_m: 2.5,
+            ..TrackParams::default()
+        };
+        let off = TrackParams {
+            window_per_recent: 0.0,
+            ..without_corners.clone()
+        };
+        let scene = (&world[..], &map, truth, guess, 0);
+        for (tracking, found) in [(&without_corners, true), (&off, false)] {
+            with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
+                let input = TrackInput {
+                    recent: &moving,
+                    ..*t.input
+                };
+                let out = track_scan(&input, t.config);
+                let e = truth.between(&out.0.expect("a pose").map_from_robot);
+                let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
+                assert_eq!(
+                    near, found,
+                    "per recent {}: {e:?} {:?}",
+                    tracking.window_per_recent, out.1
+                );
+                assert_eq!(out.1.search_won, found, "{:?}", out.1);
+            });
+        }
     }
 
     #[test]

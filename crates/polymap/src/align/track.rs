@@ -48,6 +48,12 @@ pub struct TrackParams {
     pub max_window_deg: f64,
     /// The translation window's half-width grows by this many times the predicted step.
     pub window_per_step: f64,
+    /// While ICP's pose fits under `search_below_inlier_share` of the points, the window also
+    /// grows as for a predicted step and turn this many times the largest of the last
+    /// [`RecentMotion::SCANS`] scans' steps and turns, when larger (0: the prediction alone):
+    /// a robot that stood for a scan moves on at its former speed, and one that turned lately
+    /// may turn as much again.
+    pub window_per_recent: f64,
     /// The rotation window's half-width grows by this many times the predicted turn...
     pub window_per_turn: f64,
     /// ...and by this many degrees per metre of predicted step (a robot that moved far may
@@ -186,6 +192,7 @@ impl Default for TrackParams {
             min_window_deg: 15.0,
             max_window_deg: 90.0,
             window_per_step: 1.0,
+            window_per_recent: 1.0,
             window_per_turn: 1.0,
             window_deg_per_m: 60.0,
             lost_window_growth_m: 0.5,
@@ -255,6 +262,7 @@ impl TrackParams {
                 180.0,
             )
             .within("window_per_step", self.window_per_step, 0.0, 100.0)
+            .within("window_per_recent", self.window_per_recent, 0.0, 10.0)
             .within("window_per_turn", self.window_per_turn, 0.0, 100.0)
             .within("window_deg_per_m", self.window_deg_per_m, 0.0, 1000.0)
             .within("lost_window_growth_m", self.lost_window_growth_m, 0.0, 10.0)
@@ -481,6 +489,7 @@ impl RecentMotion {
 pub fn search_window(
     prediction: &Pose2,
     anchor: &Pose2,
+    recent: &RecentMotion,
     lost_streak: u32,
     params: &TrackParams,
 ) -> SearchWindow {
@@ -493,8 +502,14 @@ pub fn search_window(
             half_theta_rad: std::f64::consts::PI,
         };
     }
-    let step = motion.translation().length();
-    let turn_deg = normalize_angle_rad(motion.theta_rad).abs().to_degrees();
+    let step = motion
+        .translation()
+        .length()
+        .max(params.window_per_recent * recent.step_m());
+    let turn_deg = normalize_angle_rad(motion.theta_rad)
+        .abs()
+        .to_degrees()
+        .max(params.window_per_recent * recent.turn_deg());
     let half_xy = (params.min_window_m + params.window_per_step * step).clamp(
         params.min_window_m,
         params.max_window_m.max(params.min_window_m),
@@ -772,16 +787,32 @@ mod tests {
     fn the_window_grows_with_the_motion_and_when_lost() {
         let p = TrackParams::default();
         let anchor = Pose2::IDENTITY;
-        let still = search_window(&anchor, &anchor, 0, &p);
+        let still = search_window(&anchor, &anchor, &RecentMotion::default(), 0, &p);
         assert_eq!(still.half_xy_m, p.min_window_m);
         assert!((still.half_theta_rad.to_degrees() - p.min_window_deg).abs() < 1e-9);
         let fast = Pose2::new(0.5, 0.0, 30f64.to_radians());
-        let w = search_window(&fast, &anchor, 0, &p);
+        let w = search_window(&fast, &anchor, &RecentMotion::default(), 0, &p);
         assert!((w.half_xy_m - 0.8).abs() < 1e-9);
         assert!((w.half_theta_rad.to_degrees() - 75.0).abs() < 1e-9);
-        let lost = search_window(&fast, &anchor, 3, &p);
+        let lost = search_window(&fast, &anchor, &RecentMotion::default(), 3, &p);
         assert!((lost.half_xy_m - 2.5).abs() < 1e-9);
         assert_eq!(lost.half_theta_rad, std::f64::consts::PI);
+        // A robot that stood still for a scan after moving fast: the window of its recent
+        // motion (0.5 m, 30°), and of the prediction alone without `window_per_recent`.
+        let mut moved = RecentMotion::default();
+        moved.push(&anchor, &fast);
+        moved.push(&fast, &fast);
+        let after_stop = search_window(&anchor, &anchor, &moved, 0, &p);
+        assert_eq!(after_stop.center, anchor);
+        assert_eq!(
+            (after_stop.half_xy_m, after_stop.half_theta_rad),
+            (w.half_xy_m, w.half_theta_rad)
+        );
+        let alone = TrackParams {
+            window_per_recent: 0.0,
+            ..p.clone()
+        };
+        assert_eq!(search_window(&anchor, &anchor, &moved, 0, &alone), still);
         let mut recent = RecentMotion::default();
         assert!(should_search(&fast, &anchor, &recent, None, 10, 0, &p));
         assert!(!should_search(&anchor, &anchor, &recent, None, 0, 0, &p));
