@@ -25,9 +25,9 @@ const JUMP_M: f64 = 0.3;
 
 fn main() {
     println!(
-        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry (alone) | ok / weak / lost | jumps (unflagged) | silent drifts | scans/s |"
+        "| world | K | scans | ATE m | ATE m, odometry | ATE m, faulty odometry (alone) | ok / weak / lost | jumps (unflagged) | silent drifts | seen through (faulty odometry) | scans/s |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for name in WORLDS {
         let clean = simulate_world(name, false);
         let faulty = simulate_world(name, true);
@@ -42,7 +42,7 @@ fn main() {
                 .filter(|&&i| plain.tracking[i].verdict == Verdict::Ok)
                 .count();
             println!(
-                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {} | {:.0} |",
+                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {} | {:.3} ({:.3}) | {:.0} |",
                 plain.kept.len(),
                 plain.ate_all_m(),
                 odom.ate_all_m(),
@@ -53,6 +53,8 @@ fn main() {
                 s.lost,
                 jumps.len(),
                 silent_drifts(&plain, 2.0, JUMP_M).len(),
+                plain.seen_through.unwrap_or(0.0),
+                bad.seen_through.unwrap_or(0.0),
                 plain.scans_per_s()
             );
         }

@@ -149,6 +149,8 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let stop = crate::interrupt::flag()?;
     let (mut record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
     check_not_empty(&log_name, &record, stats.as_ref())?;
+    // Before pruning: the segments pruned are the evidence.
+    let seen_through = record.mapper.seen_through_share();
     let pruned = a
         .prune_contradicted
         .then(|| record.mapper.prune_contradicted());
@@ -173,6 +175,14 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         record.valid_returns,
         reader,
     );
+    let warn_above = config.observe.warn_seen_through_above;
+    if let Some(share) = seen_through {
+        summary["map_consistency"] = json!({
+            "seen_through_share": share,
+            "warn_above": warn_above,
+            "likely_inconsistent": share > warn_above,
+        });
+    }
     if let Some(n) = pruned {
         summary["pruned_segments"] = json!(n);
         if !a.quiet {
@@ -189,6 +199,7 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         rays: record.scan_points.as_ref(),
         resolution_m: a.resolution,
     })?;
+    crate::warnings::warn_consistency(seen_through, warn_above);
     report(a, &record, stats.as_ref());
     if !a.quiet {
         for path in written {

@@ -48,3 +48,19 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
         );
     }
 }
+
+/// Says when the map is likely inconsistent: its scans saw through its walls more than
+/// `warn_above` as often as they saw them (`observe.warn_seen_through_above`; see
+/// [`polymap::observe::seen_through_share`]).
+pub fn warn_consistency(share: Option<f64>, warn_above: f64) {
+    if let Some(share) = share.filter(|s| *s > warn_above) {
+        eprintln!(
+            "polymap: warning: the map is likely inconsistent: the scans saw through its walls \
+             {:.0} % as often as they saw them (above {:.0} %; 2-9 % where tracking held on the \
+             benchmark logs): walls mapped from wrong poses, doubled walls or a loop that did \
+             not close; look at the picture (summary.json: map_consistency)",
+            100.0 * share,
+            100.0 * warn_above
+        );
+    }
+}

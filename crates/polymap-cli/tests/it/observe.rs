@@ -80,3 +80,42 @@ fn pruning_removes_the_moved_cupboards_ghost_and_keeps_the_walls() {
         Some((kept_segments.len() - pruned_segments.len()) as u64)
     );
 }
+
+#[test]
+fn a_consistent_map_with_a_ghost_is_not_called_inconsistent_and_the_warning_says_so_above_its_share()
+ {
+    let dir = tempfile::tempdir().unwrap();
+    let sim_dir = dir.path().join("sim");
+    let o = polymap(&["simulate", "moved", "-o", sim_dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let log = sim_dir.join("moved.clf");
+    let summary_of = |out: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap()
+    };
+    // The carried-away cupboard is seen through, but the map is right: no alarm.
+    let out = dir.path().join("run");
+    let o = map_quietly(&log, &out, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(!text(&o).contains("likely inconsistent"), "{}", text(&o));
+    let c = &summary_of(&out)["map_consistency"];
+    let share = c["seen_through_share"].as_f64().expect("a share");
+    assert!(share > 0.0 && share < 0.1, "{c}");
+    assert_eq!(c["warn_above"].as_f64(), Some(0.1));
+    assert_eq!(c["likely_inconsistent"].as_bool(), Some(false));
+    // Above a threshold it exceeds, the run says so and flags it.
+    let config = dir.path().join("strict.toml");
+    std::fs::write(&config, "[observe]\nwarn_seen_through_above = 0.0\n").unwrap();
+    let strict = dir.path().join("strict");
+    let o = map_quietly(&log, &strict, &["--config", config.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("the map is likely inconsistent"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("map_consistency"), "{stderr}");
+    assert_eq!(
+        summary_of(&strict)["map_consistency"]["likely_inconsistent"].as_bool(),
+        Some(true)
+    );
+}

@@ -57,6 +57,9 @@ pub struct Mapped {
     pub corrected: Vec<bool>,
     /// The mapper's counts.
     pub summary: TrackingSummary,
+    /// How often the scans saw through the map for each time they saw it
+    /// ([`Mapper::seen_through_share`]).
+    pub seen_through: Option<f64>,
     /// Wall-clock seconds of mapping.
     pub seconds: f64,
 }
@@ -202,6 +205,7 @@ pub fn map_every(run: &SimRun, every: usize, offset: usize, config: Config) -> M
             .map(|u| u.diagnostics.loops.optimized_nodes > 0)
             .collect(),
         summary: mapper.tracking_summary().clone(),
+        seen_through: mapper.seen_through_share(),
         seconds,
         kept,
     }

@@ -2,7 +2,7 @@
 
 use super::Mapper;
 use crate::map::Observations;
-use crate::observe::prune_contradicted;
+use crate::observe::{prune_contradicted, seen_through_share};
 
 impl Mapper {
     /// The observation record of each segment of [`Mapper::segments`], in the same order (in a
@@ -15,6 +15,16 @@ impl Mapper {
             .iter()
             .filter_map(|(id, _)| self.map.observations(id))
             .collect()
+    }
+
+    /// How often this run's scans saw through the map for each time they saw it
+    /// ([`crate::observe::seen_through_share`]); `None` when nothing was seen, and in a
+    /// localize run (the saved map is not observed).
+    pub fn seen_through_share(&self) -> Option<f64> {
+        if self.saved.is_some() {
+            return None;
+        }
+        seen_through_share(&self.map)
     }
 
     /// Removes the segments that later scans contradict

@@ -237,3 +237,55 @@ proptest! {
         prop_assert_eq!(crossed, brute_through(&segs, origin, end, &p));
     }
 }
+
+#[test]
+fn a_doubled_room_is_seen_through_and_a_true_one_is_not() {
+    // The room of a run whose poses were right, and the map of one where the second visit
+    // was mapped 0.6 m off: the first visit's walls stand inside the second's room.
+    let room = [
+        Segment::new(Vec2::new(0.0, 0.0), Vec2::new(10.0, 0.0)),
+        Segment::new(Vec2::new(10.0, 0.0), Vec2::new(10.0, 6.0)),
+        Segment::new(Vec2::new(10.0, 6.0), Vec2::new(0.0, 6.0)),
+        Segment::new(Vec2::new(0.0, 6.0), Vec2::new(0.0, 0.0)),
+    ];
+    let shift = Pose2::new(0.6, -0.6, 0.0);
+    let p = ObserveParams::default();
+    let share = |doubled: bool| {
+        let mut map = GlobalMap::default();
+        for w in &room {
+            map.insert(MapSegment {
+                segment: *w,
+                born_scan: 0,
+            });
+            if doubled {
+                map.insert(MapSegment {
+                    segment: Segment::new(
+                        shift.transform_point(w.start),
+                        shift.transform_point(w.end),
+                    ),
+                    born_scan: 0,
+                });
+            }
+        }
+        // The second visit: scans of the true room, placed 0.6 m off.
+        for k in 0..8u32 {
+            let true_pose = Pose2::new(2.0 + 0.8 * k as f64, 3.0, 0.3 * k as f64);
+            let mapped_pose = match doubled {
+                true => shift.compose(&true_pose),
+                false => true_pose,
+            };
+            observe_scan(
+                &mut map,
+                &scan_of(&room, &true_pose),
+                &mapped_pose,
+                k + 1,
+                &p,
+            );
+        }
+        seen_through_share(&map).expect("walls seen")
+    };
+    let (right, doubled) = (share(false), share(true));
+    assert!(right < 0.01, "{right}");
+    assert!(doubled > p.warn_seen_through_above, "{doubled}");
+    assert_eq!(seen_through_share(&GlobalMap::default()), None);
+}
