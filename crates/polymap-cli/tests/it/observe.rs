@@ -118,4 +118,11 @@ fn a_consistent_map_with_a_ghost_is_not_called_inconsistent_and_the_warning_says
         summary_of(&strict)["map_consistency"]["likely_inconsistent"].as_bool(),
         Some(true)
     );
+    // Scans that do not observe say nothing of the map: no share, rather than a clean 0.
+    let off = dir.path().join("off.toml");
+    std::fs::write(&off, "[observe]\nenabled = false\n").unwrap();
+    let blind = dir.path().join("blind");
+    let o = map_quietly(&log, &blind, &["--config", off.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(summary_of(&blind).get("map_consistency").is_none());
 }

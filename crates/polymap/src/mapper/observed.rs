@@ -18,10 +18,11 @@ impl Mapper {
     }
 
     /// How often this run's scans saw through the map for each time they saw it
-    /// ([`crate::observe::seen_through_share`]); `None` when nothing was seen, and in a
-    /// localize run (the saved map is not observed).
+    /// ([`crate::observe::seen_through_share`]); `None` when nothing was seen, when the scans
+    /// do not observe (`[observe] enabled = false`), and in a localize run (the saved map is
+    /// not observed).
     pub fn seen_through_share(&self) -> Option<f64> {
-        if self.saved.is_some() {
+        if self.saved.is_some() || !self.config.observe.enabled {
             return None;
         }
         seen_through_share(&self.map)
