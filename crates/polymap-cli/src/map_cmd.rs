@@ -176,6 +176,13 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         reader,
     );
     let warn_above = config.observe.warn_seen_through_above;
+    record.history.map_consistency =
+        seen_through.map(
+            |seen_through_share| polymap_export::report::MapConsistency {
+                seen_through_share,
+                warn_above,
+            },
+        );
     if let Some(share) = seen_through {
         summary["map_consistency"] = json!({
             "seen_through_share": share,

@@ -7,7 +7,7 @@ use std::path::Path;
 use polymap_io::snapshot::MapSnapshot;
 use serde::Serialize;
 
-use super::{ReportData, SeriesPoint};
+use super::{MapConsistency, ReportData, SeriesPoint};
 use crate::ExportError;
 
 const PAGE: &str = include_str!("page.html");
@@ -30,6 +30,7 @@ struct Payload<'a> {
     snapshots: Vec<SnapshotPayload>,
     series: [SeriesPayload<'a>; 4],
     lost_ranges: &'a [[u32; 2]],
+    map_consistency: Option<MapConsistency>,
 }
 
 #[derive(Serialize)]
@@ -121,6 +122,7 @@ fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
             series("ICP iterations", "", &d.icp_iterations, 0),
         ],
         lost_ranges: &data.lost_ranges,
+        map_consistency: data.map_consistency,
     }
 }
 

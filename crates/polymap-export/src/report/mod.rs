@@ -60,6 +60,21 @@ pub struct ReportData {
     /// the page's time lines).
     #[serde(default)]
     pub lost_ranges: Vec<[u32; 2]>,
+    /// The run's check of the map as a whole (`summary.json` `map_consistency`), when the
+    /// scans observed the map; shown beside the counts.
+    #[serde(default)]
+    pub map_consistency: Option<MapConsistency>,
+}
+
+/// How often the run's scans saw through the map's walls for each time they saw one
+/// ([`polymap::observe::seen_through_share`]), and the share above which the map is called
+/// likely inconsistent (`[observe] warn_seen_through_above`). Both plain ratios.
+#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+pub struct MapConsistency {
+    /// Σ length × seen through / Σ length × seen over the map's segments.
+    pub seen_through_share: f64,
+    /// The run warns above this share.
+    pub warn_above: f64,
 }
 
 /// One robot pose of the trajectory.

@@ -58,7 +58,10 @@
 
   function fmt(v, digits) {
     if (!finite(v)) { return '–'; }
-    return Math.abs(v) >= 1000 ? v.toFixed(0) : v.toPrecision(digits || 3).replace(/\.?0+$/, '');
+    if (Math.abs(v) >= 1000) { return v.toFixed(0); }
+    // Trailing zeros of the fraction only: 250 stays 250.
+    var t = v.toPrecision(digits || 3);
+    return t.indexOf('.') < 0 || t.indexOf('e') >= 0 ? t : t.replace(/\.?0+$/, '');
   }
 
   // ---------------------------------------------------------------- canvas helpers
@@ -276,6 +279,12 @@
       ['snapshots stored', snaps.length],
       ['trajectory poses stored', D.trajectory_scan.length]
     ];
+    var mc = D.map_consistency;
+    if (mc) {
+      rows.push(['walls seen through, per sighting', fmt(100 * mc.seen_through_share, 3) + ' %' +
+        (mc.seen_through_share > mc.warn_above ? ' (above ' + fmt(100 * mc.warn_above, 3) +
+          ' %: the map is likely inconsistent)' : '')]);
+    }
     var table = $('counts');
     table.textContent = '';
     rows.forEach(function (r) {

@@ -180,6 +180,7 @@ impl ReportRecorder {
                 map_segments: self.map_segments.points(),
             },
             lost_ranges: self.lost_ranges,
+            map_consistency: None,
         }
     }
 }

@@ -172,4 +172,16 @@ fn lost_scans_become_ranges_on_the_time_line() {
         crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &data)
             .expect("renders");
     assert!(html.contains("\"lost_ranges\":[[2,4],[7,7]]"));
+    assert!(html.contains("\"map_consistency\":null"));
+    let checked = ReportData {
+        map_consistency: Some(crate::report::MapConsistency {
+            seen_through_share: 0.25,
+            warn_above: 0.1,
+        }),
+        ..data
+    };
+    let html =
+        crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &checked)
+            .expect("renders");
+    assert!(html.contains("\"map_consistency\":{\"seen_through_share\":0.25,\"warn_above\":0.1}"));
 }
