@@ -42,7 +42,7 @@ fn main() {
                 .filter(|&&i| plain.tracking[i].verdict == Verdict::Ok)
                 .count();
             println!(
-                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {} | {:.3} ({:.3}) | {:.0} |",
+                "| {name} | {every} | {} | {:.3} | {:.3} | {:.3} ({:.2}) | {} / {} / {} | {} ({unflagged}) | {} | {} ({}) | {:.0} |",
                 plain.kept.len(),
                 plain.ate_all_m(),
                 odom.ate_all_m(),
@@ -53,13 +53,18 @@ fn main() {
                 s.lost,
                 jumps.len(),
                 silent_drifts(&plain, 2.0, JUMP_M).len(),
-                plain.seen_through.unwrap_or(0.0),
-                bad.seen_through.unwrap_or(0.0),
+                share(plain.seen_through),
+                share(bad.seen_through),
                 plain.scans_per_s()
             );
         }
     }
     phases();
+}
+
+/// A seen-through share to three places, or "–" when there is none.
+fn share(s: Option<f64>) -> String {
+    s.map_or_else(|| "–".to_string(), |s| format!("{s:.3}"))
 }
 
 /// Every phase of K = 5 and 10, without odometry.

@@ -206,8 +206,7 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         rays: record.scan_points.as_ref(),
         resolution_m: a.resolution,
     })?;
-    crate::warnings::warn_consistency(seen_through, warn_above);
-    report(a, &record, stats.as_ref());
+    report(a, &record, stats.as_ref(), (seen_through, warn_above));
     if !a.quiet {
         for path in written {
             say!("wrote {}", path.display());
@@ -434,7 +433,14 @@ fn progress_bar(quiet: bool, size: Option<u64>) -> ProgressBar {
     }
 }
 
-fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
+/// The warnings, then (unless quiet) the summary line; `consistency` is the map's
+/// seen-through share and the share the run warns above.
+fn report(
+    a: &MapArgs,
+    run: &RunRecord,
+    stats: Option<&CarmenStats>,
+    consistency: (Option<f64>, f64),
+) {
     if let Some(s) = stats.filter(|s| s.bad_lines > 0) {
         eprintln!(
             "polymap: warning: skipped {} malformed line(s); first: {}",
@@ -446,6 +452,7 @@ fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
         crate::warnings::report_reader_warnings(s);
     }
     crate::warnings::warn_tracking(run.mapper.tracking_summary(), run.trajectory.len());
+    crate::warnings::warn_consistency(consistency.0, consistency.1);
     if a.quiet {
         return;
     }

@@ -33,7 +33,8 @@ use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::map::{GlobalMap, SegmentId};
 
-/// Parameters of the observation bookkeeping and of pruning (section `[observe]`).
+/// Parameters of the observation bookkeeping, of pruning, and of the map's consistency
+/// warning (section `[observe]`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct ObserveParams {
@@ -264,11 +265,14 @@ pub fn prune_contradicted(map: &mut GlobalMap, params: &ObserveParams) -> usize 
 /// segment weighted by its length: `Σ length × seen_through / Σ length × seen` over the
 /// segments' [`Observations`](crate::map::Observations); `None` when no segment was seen.
 ///
-/// A run whose poses are right sees through its map's segments only where the world changed
-/// or the map spans a gap (open doors, chair legs, glass): 0.02–0.09 on the benchmark logs,
-/// every 1st to 5th scan. Where tracking failed, walls mapped from a wrong pose stand in the
-/// free space of the scans around them, and later scans see through them (doubled walls, a
-/// loop that did not close): 0.10–0.39 on every 10th scan of Intel and FR079.
+/// Only scans that observe count (they entered the map, and moved or turned far enough since
+/// the last that did): lost scans do not. A run whose poses are right sees through its map's
+/// segments only where the world changed or the map spans a gap (open doors, chair legs,
+/// glass): 0.020–0.086 on every run of the benchmark logs that tracked to within 0.1 m. Where
+/// tracking failed, walls mapped from a wrong pose stand in the free space of the scans around
+/// them, and later scans see through them (doubled walls, a loop that did not close):
+/// 0.106–0.374 on every 10th scan of FR079 (10 of 10 phases), 0.127–0.250 on 8 of 10 phases
+/// of Intel's.
 pub fn seen_through_share(map: &GlobalMap) -> Option<f64> {
     let (mut seen, mut through) = (0.0, 0.0);
     for (id, s) in map.iter() {

@@ -459,19 +459,31 @@ impl Tracker<'_> {
             .flatten()
         {
             Some(w) => w,
-            None => {
-                // ICP's pose fits poorly: the robot may have moved on at its recent speed
-                // after a stop, or turned as it did lately, beyond the prediction's window.
-                let share = result.inliers as f64 / self.points.len().max(1) as f64;
-                let none = RecentMotion::default();
-                let recent = match share < tracking.search_below_inlier_share {
-                    true => input.recent,
-                    false => &none,
-                };
-                search_window(&guess, &anchor, recent, lost_streak, tracking)
-            }
+            None => self.window(&result),
         };
         self.search_in(&window, result, unobserved)
+    }
+
+    /// The window around the prediction ([`search_window`]); while ICP's `result` fits under
+    /// `tracking.search_below_inlier_share` of the points, also as wide as the recent motion
+    /// (`tracking.window_per_recent`): the robot may have moved on at its recent speed after a
+    /// stop, or turned as it did lately. The recent motion is every step tracked, corrections
+    /// after a poor fit included: at worst a few scans get the widest window.
+    fn window(&self, result: &AlignResult) -> SearchWindow {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let share = result.inliers as f64 / self.points.len().max(1) as f64;
+        let none = RecentMotion::default();
+        let recent = match share < tracking.search_below_inlier_share {
+            true => input.recent,
+            false => &none,
+        };
+        search_window(
+            &input.guess,
+            &input.anchor,
+            recent,
+            input.lost_streak,
+            tracking,
+        )
     }
 
     /// The window search in `window` and ICP from its best pose against ICP's `result` from
@@ -997,6 +1009,38 @@ mod tests {
                 assert_eq!(out.1.search_won, found, "{:?}", out.1);
             });
         }
+    }
+
+    /// The window of the recent motion only while ICP fits poorly: a pose that fits well
+    /// keeps the prediction's window, whatever the robot did lately.
+    #[test]
+    fn the_window_grows_with_the_recent_motion_only_after_a_poor_fit() {
+        let (world, map, truth, guess) = beyond_the_window();
+        let mut moving = RecentMotion::default();
+        moving.push(&guess, &truth);
+        let tracking = TrackParams::default();
+        let scene = (&world[..], &map, truth, guess, 0);
+        with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
+            let input = TrackInput {
+                recent: &moving,
+                ..*t.input
+            };
+            let tracker = Tracker {
+                input: &input,
+                ..*t
+            };
+            let narrow = search_window(&guess, &guess, &RecentMotion::default(), 0, &tracking);
+            let good = tracker.run(&[], truth);
+            let poor = tracker.run(&[], guess);
+            let n = tracker.points.len() as f64;
+            assert!(good.inliers as f64 >= tracking.search_below_inlier_share * n);
+            assert!((poor.inliers as f64) < tracking.search_below_inlier_share * n);
+            assert_eq!(tracker.window(&good), narrow);
+            let wide = tracker.window(&poor);
+            assert_eq!(wide.center, narrow.center);
+            assert_eq!(wide.half_xy_m, tracking.max_window_m);
+            assert_eq!(wide.half_theta_rad, tracking.max_window_deg.to_radians());
+        });
     }
 
     #[test]

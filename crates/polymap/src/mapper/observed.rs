@@ -17,10 +17,11 @@ impl Mapper {
             .collect()
     }
 
-    /// How often this run's scans saw through the map for each time they saw it
-    /// ([`crate::observe::seen_through_share`]); `None` when nothing was seen, when the scans
-    /// do not observe (`[observe] enabled = false`), and in a localize run (the saved map is
-    /// not observed).
+    /// How often the scans saw through the map for each time they saw it
+    /// ([`crate::observe::seen_through_share`]), over every run of the map (a `--resume`d map
+    /// keeps the records of the runs before); `None` for an empty map, when the scans do not
+    /// observe (`[observe] enabled = false`), and in a localize run (the saved map is not
+    /// observed).
     pub fn seen_through_share(&self) -> Option<f64> {
         if self.saved.is_some() || !self.config.observe.enabled {
             return None;
