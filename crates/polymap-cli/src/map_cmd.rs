@@ -13,6 +13,7 @@ use polymap::geometry::Pose2;
 use polymap::loops::SavedNode;
 use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
 use polymap_export::formats::Format;
+use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
 use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
@@ -150,7 +151,14 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let (mut record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
     check_not_empty(&log_name, &record, stats.as_ref())?;
     // Before pruning: the segments pruned are the evidence.
-    let seen_through = record.mapper.seen_through_share();
+    let warn_above = config.observe.warn_seen_through_above;
+    record.history.map_consistency = record
+        .mapper
+        .seen_through_share()
+        .map(|seen_through_share| MapConsistency {
+            seen_through_share,
+            warn_above,
+        });
     let pruned = a
         .prune_contradicted
         .then(|| record.mapper.prune_contradicted());
@@ -175,19 +183,11 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         record.valid_returns,
         reader,
     );
-    let warn_above = config.observe.warn_seen_through_above;
-    record.history.map_consistency =
-        seen_through.map(
-            |seen_through_share| polymap_export::report::MapConsistency {
-                seen_through_share,
-                warn_above,
-            },
-        );
-    if let Some(share) = seen_through {
+    if let Some(c) = &record.history.map_consistency {
         summary["map_consistency"] = json!({
-            "seen_through_share": share,
-            "warn_above": warn_above,
-            "likely_inconsistent": share > warn_above,
+            "seen_through_share": c.seen_through_share,
+            "warn_above": c.warn_above,
+            "likely_inconsistent": c.likely_inconsistent(),
         });
     }
     if let Some(n) = pruned {
@@ -206,7 +206,7 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         rays: record.scan_points.as_ref(),
         resolution_m: a.resolution,
     })?;
-    report(a, &record, stats.as_ref(), (seen_through, warn_above));
+    report(a, &record, stats.as_ref());
     if !a.quiet {
         for path in written {
             say!("wrote {}", path.display());
@@ -433,14 +433,8 @@ fn progress_bar(quiet: bool, size: Option<u64>) -> ProgressBar {
     }
 }
 
-/// The warnings, then (unless quiet) the summary line; `consistency` is the map's
-/// seen-through share and the share the run warns above.
-fn report(
-    a: &MapArgs,
-    run: &RunRecord,
-    stats: Option<&CarmenStats>,
-    consistency: (Option<f64>, f64),
-) {
+/// The warnings, then (unless quiet) the summary line.
+fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
     if let Some(s) = stats.filter(|s| s.bad_lines > 0) {
         eprintln!(
             "polymap: warning: skipped {} malformed line(s); first: {}",
@@ -452,7 +446,7 @@ fn report(
         crate::warnings::report_reader_warnings(s);
     }
     crate::warnings::warn_tracking(run.mapper.tracking_summary(), run.trajectory.len());
-    crate::warnings::warn_consistency(consistency.0, consistency.1);
+    crate::warnings::warn_consistency(run.history.map_consistency.as_ref());
     if a.quiet {
         return;
     }

@@ -1,6 +1,7 @@
 //! Counted warnings about what the reader accepted but found odd.
 
 use polymap::mapper::TrackingSummary;
+use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
 
 /// Prints one warning line per kind of oddity the reader counted.
@@ -52,15 +53,15 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
 /// Says when the map is likely inconsistent: its scans saw through its walls more than
 /// `warn_above` as often as they saw them (`observe.warn_seen_through_above`; see
 /// [`polymap::observe::seen_through_share`]).
-pub fn warn_consistency(share: Option<f64>, warn_above: f64) {
-    if let Some(share) = share.filter(|s| *s > warn_above) {
+pub fn warn_consistency(consistency: Option<&MapConsistency>) {
+    if let Some(c) = consistency.filter(|c| c.likely_inconsistent()) {
         eprintln!(
             "polymap: warning: the map is likely inconsistent: the scans saw through its walls \
              {:.0} % as often as they saw them (above {:.0} %; 2-9 % where tracking held on the \
              benchmark logs): walls mapped from wrong poses, doubled walls or a loop that did \
              not close; look at the picture (summary.json: map_consistency)",
-            100.0 * share,
-            100.0 * warn_above
+            100.0 * c.seen_through_share,
+            100.0 * c.warn_above
         );
     }
 }

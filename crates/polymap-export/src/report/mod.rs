@@ -77,6 +77,13 @@ pub struct MapConsistency {
     pub warn_above: f64,
 }
 
+impl MapConsistency {
+    /// Whether the share is above the threshold: the map is likely inconsistent.
+    pub fn likely_inconsistent(&self) -> bool {
+        self.seen_through_share > self.warn_above
+    }
+}
+
 /// One robot pose of the trajectory.
 #[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct TrajectoryPose {

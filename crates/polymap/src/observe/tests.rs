@@ -34,15 +34,20 @@ fn params_every_scan() -> ObserveParams {
     }
 }
 
-#[test]
-fn a_ghost_is_seen_through_and_pruned_and_the_walls_stay() {
-    // A room 10 × 6 m; the map also holds a box face at x = 5 that is gone.
-    let room = [
+/// The walls of a room 10 × 6 m with a corner at the origin.
+fn room() -> [Segment; 4] {
+    [
         Segment::new(Vec2::new(0.0, 0.0), Vec2::new(10.0, 0.0)),
         Segment::new(Vec2::new(10.0, 0.0), Vec2::new(10.0, 6.0)),
         Segment::new(Vec2::new(10.0, 6.0), Vec2::new(0.0, 6.0)),
         Segment::new(Vec2::new(0.0, 6.0), Vec2::new(0.0, 0.0)),
-    ];
+    ]
+}
+
+#[test]
+fn a_ghost_is_seen_through_and_pruned_and_the_walls_stay() {
+    // The room; the map also holds a box face at x = 5 that is gone.
+    let room = room();
     let mut map = GlobalMap::default();
     for w in &room {
         map.insert(MapSegment {
@@ -242,12 +247,7 @@ proptest! {
 fn a_doubled_room_is_seen_through_and_a_true_one_is_not() {
     // The room of a run whose poses were right, and the map of one where the second visit
     // was mapped 0.6 m off: the first visit's walls stand inside the second's room.
-    let room = [
-        Segment::new(Vec2::new(0.0, 0.0), Vec2::new(10.0, 0.0)),
-        Segment::new(Vec2::new(10.0, 0.0), Vec2::new(10.0, 6.0)),
-        Segment::new(Vec2::new(10.0, 6.0), Vec2::new(0.0, 6.0)),
-        Segment::new(Vec2::new(0.0, 6.0), Vec2::new(0.0, 0.0)),
-    ];
+    let room = room();
     let shift = Pose2::new(0.6, -0.6, 0.0);
     let p = ObserveParams::default();
     let share = |doubled: bool| {
