@@ -19,6 +19,9 @@ use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 /// Highest block level: blocks of up to `2^6 = 64` cells a side.
 const MAX_LEVEL: u32 = 6;
 
+/// Independent partial sums of a block's bound.
+const LANES: usize = 8;
+
 /// A box of poses to search: translations within `half_xy_m` of the centre along x and y (map
 /// frame), rotations within `half_theta_rad` of its heading (at least π: the whole circle).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -77,6 +80,9 @@ impl Drop for CorrelativeMatcher {
 struct Rotation {
     theta_rad: f64,
     cells: Vec<(i64, i64)>,
+    /// Each cell as its index into a level's padded values at zero offset (`y × padded width +
+    /// x`): a block inside the raster adds one offset per point instead of a row product.
+    flat: Vec<i64>,
     /// The smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)` (`None` for no
     /// cells): a block whose every cell lands inside the raster is summed without checks.
     extent: Option<(i64, i64, i64, i64)>,
@@ -454,13 +460,25 @@ impl CorrelativeMatcher {
         let half = window.half_theta_rad.clamp(0.0, std::f64::consts::PI);
         let count = ((half / step.max(1e-4)).ceil() as i64).min(4000);
         let c = window.center;
+        let pw = self.padded_width;
         (-count..=count)
             .map(|k| {
                 let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
                 let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
+                // `Pose2::transform_point` with its sine and cosine taken once per rotation
+                // (the same arithmetic: the same cells).
+                let (sin, cos) = pose.theta_rad.sin_cos();
+                let t = pose.translation();
                 let cells: Vec<(i64, i64)> = points
                     .iter()
-                    .map(|p| self.raster.cell_of(pose.transform_point(*p)))
+                    .map(|p| {
+                        let q = Vec2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y) + t;
+                        self.raster.cell_of(q)
+                    })
+                    .collect();
+                let flat = cells
+                    .iter()
+                    .map(|&(x, y)| y.saturating_mul(pw).saturating_add(x))
                     .collect();
                 let extent = cells.iter().fold(None, |e, &(x, y)| match e {
                     None => Some((x, y, x, y)),
@@ -469,6 +487,7 @@ impl CorrelativeMatcher {
                 Rotation {
                     theta_rad,
                     cells,
+                    flat,
                     extent,
                 }
             })
@@ -492,20 +511,31 @@ impl CorrelativeMatcher {
                 && x1 + ox < self.padded_width
                 && y1 + oy < self.padded_height
         });
-        // The same sum in the same order either way (f32 results are bit-identical).
-        let mut bound = 0f32;
+        // The same sum in the same order either way (f32 results are bit-identical): point
+        // `i` into lane `i % LANES`, the lanes added in order at the end. Independent lanes
+        // let the additions overlap (one chain of dependent additions was most of the cost),
+        // and any fixed order keeps a block's bound at or above every sum it covers.
+        let mut lanes = [0f32; LANES];
         if inside {
-            for &(cx, cy) in &rotation.cells {
-                bound += values[((cy + oy) * self.padded_width + cx + ox) as usize];
+            let offset = oy * self.padded_width + ox;
+            let mut chunks = rotation.flat.chunks_exact(LANES);
+            for chunk in &mut chunks {
+                for (lane, &at) in lanes.iter_mut().zip(chunk) {
+                    *lane += values[(at + offset) as usize];
+                }
+            }
+            for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
+                *lane += values[(at + offset) as usize];
             }
         } else {
-            for &(cx, cy) in &rotation.cells {
+            for (i, &(cx, cy)) in rotation.cells.iter().enumerate() {
                 let (x, y) = (cx + ox, cy + oy);
                 if x >= 0 && y >= 0 && x < self.padded_width && y < self.padded_height {
-                    bound += values[(y * self.padded_width + x) as usize];
+                    lanes[i % LANES] += values[(y * self.padded_width + x) as usize];
                 }
             }
         }
+        let bound = lanes.iter().fold(0f32, |sum, lane| sum + lane);
         Block {
             rotation: r,
             ix,

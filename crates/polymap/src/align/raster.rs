@@ -114,6 +114,11 @@ impl ScoreRaster {
         let y0 = (a.y / cell).floor().max(0.0) as usize;
         let y1 = ((b.y / cell).ceil().max(0.0) as usize).min(self.height - 1);
         let (p, q) = (s.start - self.origin, s.end - self.origin);
+        // A cell farther than σ from the segment's line scores nothing: skipped by a cross
+        // product before the exact distance (a slack of 1e-9 m² over σ², far above the
+        // rounding, keeps every cell that could score; the values are unchanged).
+        let v = s.end - s.start;
+        let beyond = (sigma_2 + 1e-9) * v.length_squared();
         for y in y0..=y1 {
             // Only the span of x where the segment, widened by σ, crosses this row.
             let (ylo, yhi) = (y as f64 * cell - sigma, (y + 1) as f64 * cell + sigma);
@@ -122,6 +127,10 @@ impl ScoreRaster {
             let x1 = (((xhi + sigma) / cell).ceil().max(0.0) as usize).min(self.width - 1);
             for x in x0..=x1 {
                 let c = self.origin + Vec2::new((x as f64 + 0.5) * cell, (y as f64 + 0.5) * cell);
+                let cross = (c - s.start).perp_dot(v);
+                if cross * cross > beyond {
+                    continue;
+                }
                 self.raise(x, y, 1.0 - s.distance_2_to_point(c) / sigma_2);
             }
         }
