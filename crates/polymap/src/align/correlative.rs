@@ -75,17 +75,40 @@ impl Drop for CorrelativeMatcher {
     }
 }
 
-/// One rotation of the window: the points' cells at zero offset.
-#[derive(Debug, Clone)]
-struct Rotation {
-    theta_rad: f64,
-    cells: Vec<(i64, i64)>,
+/// The rotations of a window: for each, the points' cells at zero offset, all rotations in
+/// one buffer (one allocation per search instead of two per rotation).
+#[derive(Debug, Clone, Default)]
+struct Rotations {
+    theta_rad: Vec<f64>,
+    /// Per rotation, the smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)`
+    /// (`None` for no cells): a block whose every cell lands inside the raster is summed
+    /// without checks.
+    extent: Vec<Option<(i64, i64, i64, i64)>>,
+    /// `points` cells per rotation, rotation after rotation; coordinates clamped to
+    /// `±CELL_CLAMP` (still outside every raster).
+    cells: Vec<(i32, i32)>,
     /// Each cell as its index into a level's padded values at zero offset (`y × padded width +
-    /// x`): a block inside the raster adds one offset per point instead of a row product.
-    flat: Vec<i64>,
-    /// The smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)` (`None` for no
-    /// cells): a block whose every cell lands inside the raster is summed without checks.
-    extent: Option<(i64, i64, i64, i64)>,
+    /// x`), valid where the rotation's extent lies inside: a block inside the raster adds one
+    /// offset per point instead of a row product.
+    flat: Vec<i32>,
+    points: usize,
+}
+
+/// The largest cell coordinate kept (far beyond any raster: at most 2²⁰ cells).
+const CELL_CLAMP: i64 = 1 << 30;
+
+impl Rotations {
+    fn len(&self) -> usize {
+        self.theta_rad.len()
+    }
+
+    fn cells(&self, r: usize) -> &[(i32, i32)] {
+        &self.cells[r * self.points..(r + 1) * self.points]
+    }
+
+    fn flat(&self, r: usize) -> &[i32] {
+        &self.flat[r * self.points..(r + 1) * self.points]
+    }
 }
 
 /// A block of translations: offsets `[ix, ix + 2^level) × [iy, iy + 2^level)` cells at one
@@ -123,7 +146,7 @@ pub struct WindowBest {
 /// One window prepared for one set of points: its rotations and its top blocks, best first.
 #[derive(Debug, Clone)]
 struct Prepared {
-    rotations: Vec<Rotation>,
+    rotations: Rotations,
     reach: i64,
     blocks: Vec<Block>,
     points: usize,
@@ -447,7 +470,7 @@ impl CorrelativeMatcher {
     }
 
     /// The rotations of the window, stepped so that the farthest point moves at most one cell.
-    fn rotations(&self, points: &[Vec2], window: &SearchWindow) -> Vec<Rotation> {
+    fn rotations(&self, points: &[Vec2], window: &SearchWindow) -> Rotations {
         let cell = self.raster.cell_m();
         let reach_m = points
             .iter()
@@ -461,37 +484,41 @@ impl CorrelativeMatcher {
         let count = ((half / step.max(1e-4)).ceil() as i64).min(4000);
         let c = window.center;
         let pw = self.padded_width;
-        (-count..=count)
-            .map(|k| {
-                let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
-                let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
-                // `Pose2::transform_point` with its sine and cosine taken once per rotation
-                // (the same arithmetic: the same cells).
-                let (sin, cos) = pose.theta_rad.sin_cos();
-                let t = pose.translation();
-                let cells: Vec<(i64, i64)> = points
-                    .iter()
-                    .map(|p| {
-                        let q = Vec2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y) + t;
-                        self.raster.cell_of(q)
-                    })
-                    .collect();
-                let flat = cells
-                    .iter()
-                    .map(|&(x, y)| y.saturating_mul(pw).saturating_add(x))
-                    .collect();
-                let extent = cells.iter().fold(None, |e, &(x, y)| match e {
-                    None => Some((x, y, x, y)),
-                    Some((a, b, c, d)) => Some((a.min(x), b.min(y), c.max(x), d.max(y))),
+        let total = (2 * count + 1) as usize;
+        let mut out = Rotations {
+            theta_rad: Vec::with_capacity(total),
+            extent: Vec::with_capacity(total),
+            cells: Vec::with_capacity(total * points.len()),
+            flat: Vec::with_capacity(total * points.len()),
+            points: points.len(),
+        };
+        for k in -count..=count {
+            let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
+            let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
+            // `Pose2::transform_point` with its sine and cosine taken once per rotation (the
+            // same arithmetic: the same cells).
+            let (sin, cos) = pose.theta_rad.sin_cos();
+            let t = pose.translation();
+            let mut extent: Option<(i64, i64, i64, i64)> = None;
+            for p in points {
+                let q = Vec2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y) + t;
+                let (x, y) = self.raster.cell_of(q);
+                let (x, y) = (
+                    x.clamp(-CELL_CLAMP, CELL_CLAMP),
+                    y.clamp(-CELL_CLAMP, CELL_CLAMP),
+                );
+                extent = Some(match extent {
+                    None => (x, y, x, y),
+                    Some((a, b, c, d)) => (a.min(x), b.min(y), c.max(x), d.max(y)),
                 });
-                Rotation {
-                    theta_rad,
-                    cells,
-                    flat,
-                    extent,
-                }
-            })
-            .collect()
+                out.cells.push((x as i32, y as i32));
+                // Wraps only for cells outside, where it is never read.
+                out.flat.push((y * pw + x) as i32);
+            }
+            out.theta_rad.push(theta_rad);
+            out.extent.push(extent);
+        }
+        out
     }
 
     /// The translation window in whole cells each way.
@@ -501,11 +528,10 @@ impl CorrelativeMatcher {
     }
 
     /// The block at `(ix, iy)` of `level` for rotation `r`, with its bound.
-    fn block(&self, rotations: &[Rotation], r: usize, ix: i64, iy: i64, level: u32) -> Block {
+    fn block(&self, rotations: &Rotations, r: usize, ix: i64, iy: i64, level: u32) -> Block {
         let values = &self.levels[level as usize];
-        let rotation = &rotations[r];
         let (ox, oy) = (ix + self.pad, iy + self.pad);
-        let inside = rotation.extent.is_some_and(|(x0, y0, x1, y1)| {
+        let inside = rotations.extent[r].is_some_and(|(x0, y0, x1, y1)| {
             x0 + ox >= 0
                 && y0 + oy >= 0
                 && x1 + ox < self.padded_width
@@ -518,18 +544,18 @@ impl CorrelativeMatcher {
         let mut lanes = [0f32; LANES];
         if inside {
             let offset = oy * self.padded_width + ox;
-            let mut chunks = rotation.flat.chunks_exact(LANES);
+            let mut chunks = rotations.flat(r).chunks_exact(LANES);
             for chunk in &mut chunks {
                 for (lane, &at) in lanes.iter_mut().zip(chunk) {
-                    *lane += values[(at + offset) as usize];
+                    *lane += values[(at as i64 + offset) as usize];
                 }
             }
             for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
-                *lane += values[(at + offset) as usize];
+                *lane += values[(at as i64 + offset) as usize];
             }
         } else {
-            for (i, &(cx, cy)) in rotation.cells.iter().enumerate() {
-                let (x, y) = (cx + ox, cy + oy);
+            for (i, &(cx, cy)) in rotations.cells(r).iter().enumerate() {
+                let (x, y) = (cx as i64 + ox, cy as i64 + oy);
                 if x >= 0 && y >= 0 && x < self.padded_width && y < self.padded_height {
                     lanes[i % LANES] += values[(y * self.padded_width + x) as usize];
                 }
@@ -549,7 +575,7 @@ impl CorrelativeMatcher {
 /// The state of one search.
 struct Search<'a> {
     matcher: &'a CorrelativeMatcher,
-    rotations: &'a [Rotation],
+    rotations: &'a Rotations,
     window: &'a SearchWindow,
     reach: i64,
     exclusions: &'a [Exclusion],
@@ -616,7 +642,7 @@ impl Search<'_> {
         Pose2::new(
             c.x_m + b.ix as f64 * cell,
             c.y_m + b.iy as f64 * cell,
-            self.rotations[b.rotation].theta_rad,
+            self.rotations.theta_rad[b.rotation],
         )
     }
 
