@@ -451,6 +451,13 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         keys
     }
 
+    /// Calls `f` with the key of every entry in the cells of the box `[lo, hi]`: the keys
+    /// [`SegmentIndex::in_box`] returns, each as often as it is listed there (a caller that
+    /// can mark keys it saw dedups without sorting them all).
+    pub fn for_keys_in_box(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(K)) {
+        self.for_cells(lo, hi, |list| list.iter().for_each(|e| f(e.key)));
+    }
+
     fn for_cells<'a>(&'a self, lo: Vec2, hi: Vec2, mut f: impl FnMut(&'a Vec<Entry<K>>)) {
         let (c0, c1) = (self.cell_of(lo), self.cell_of(hi));
         let cells = (c1.0.saturating_sub(c0.0).saturating_add(1))
