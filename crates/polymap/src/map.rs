@@ -413,6 +413,38 @@ mod tests {
         assert_eq!(map.get(b).map(|s| s.born_scan), Some(1));
     }
 
+    /// The query's own dedup (a slot marked once seen) gives exactly the grid's sorted,
+    /// deduplicated box query, through removals and slot reuse.
+    #[test]
+    fn query_is_the_grids_box_query_once_each_and_sorted() {
+        let mut map = GlobalMap::default();
+        let mut ids = Vec::new();
+        for i in 0..40 {
+            let (x, y) = ((i % 8) as f64 * 1.3, (i / 8) as f64 * 0.9);
+            let segment = Segment::new(Vec2::new(x, y), Vec2::new(x + 2.5, y + 0.7));
+            ids.push(map.insert(MapSegment {
+                segment,
+                born_scan: i,
+            }));
+        }
+        for id in ids.iter().step_by(3) {
+            map.remove(*id);
+        }
+        for i in 0..5 {
+            map.insert(ms(i as f64 * 2.0, 50));
+        }
+        for (lo, hi) in [
+            (Vec2::new(-1.0, -1.0), Vec2::new(20.0, 10.0)),
+            (Vec2::new(2.0, 1.0), Vec2::new(4.0, 2.0)),
+            (Vec2::new(30.0, 30.0), Vec2::new(31.0, 31.0)),
+        ] {
+            let found = map.query(lo, hi);
+            assert_eq!(found, map.grid.in_box(lo, hi));
+            assert!(found.windows(2).all(|w| w[0] < w[1]));
+            assert!(found.iter().all(|id| map.get(*id).is_some()));
+        }
+    }
+
     #[test]
     fn born_since_returns_only_recent_live_segments() {
         let mut map = GlobalMap::default();

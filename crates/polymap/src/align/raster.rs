@@ -243,6 +243,33 @@ mod tests {
         assert_eq!(raster.at(Vec2::new(f64::NAN, 0.0)), 0.0);
     }
 
+    /// Drawing a segment only where it can score (its row spans and the cross-product skip)
+    /// gives every cell the value the kernel gives it when every cell is computed.
+    #[test]
+    fn drawing_skips_only_cells_that_score_nothing() {
+        let segs = [
+            Segment::new(Vec2::new(0.03, 0.07), Vec2::new(4.91, 3.13)),
+            Segment::new(Vec2::new(4.2, 0.1), Vec2::new(0.4, 2.9)),
+            Segment::new(Vec2::new(1.0, 1.55), Vec2::new(3.7, 1.55)),
+            Segment::new(Vec2::new(2.45, 0.2), Vec2::new(2.45, 3.0)),
+            Segment::new(Vec2::new(3.0, 3.0), Vec2::new(3.0, 3.0)),
+        ];
+        let (cell, sigma) = (0.1, 0.2);
+        let raster = ScoreRaster::of(&segs, &[], cell, sigma);
+        let (w, h) = raster.size();
+        for y in 0..h {
+            for x in 0..w {
+                let c =
+                    raster.origin() + Vec2::new((x as f64 + 0.5) * cell, (y as f64 + 0.5) * cell);
+                let want = segs
+                    .iter()
+                    .map(|s| 1.0 - s.distance_2_to_point(c) / (sigma * sigma))
+                    .fold(0f32, |v, d| if d > v as f64 { d as f32 } else { v });
+                assert_eq!(raster.cell(x as i64, y as i64).to_bits(), want.to_bits());
+            }
+        }
+    }
+
     #[test]
     fn a_loose_point_scores_near_it_only() {
         let raster = ScoreRaster::of(&[], &[Vec2::new(1.0, 1.0)], 0.05, 0.2);
