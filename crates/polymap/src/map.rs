@@ -301,18 +301,17 @@ impl GlobalMap {
         let mut ids = Vec::new();
         self.grid.for_keys_in_box(lo, hi, |id: SegmentId| {
             let slot = id.slot as usize;
+            // The grid holds exactly the live handles, one per slot.
+            debug_assert!(slot < self.slots.len());
             if let Some(word) = seen.get_mut(slot / 64) {
                 let bit = 1u64 << (slot % 64);
                 if *word & bit == 0 {
                     *word |= bit;
                     ids.push(id);
                 }
-            } else {
-                ids.push(id);
             }
         });
         ids.sort_unstable();
-        ids.dedup();
         ids
     }
 

@@ -441,8 +441,8 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         }
     }
 
-    /// Keys of the segments that cross the box `[lo, hi]` (and possibly some that only come
-    /// within reach of it), sorted, no repeats.
+    /// Keys of the segments that cross the box `[lo, hi]` (metres, the index's frame; and
+    /// possibly some that only come within reach of it), sorted, no repeats.
     pub fn in_box(&self, lo: Vec2, hi: Vec2) -> Vec<K> {
         let mut keys = Vec::new();
         self.for_cells(lo, hi, |list| keys.extend(list.iter().map(|e| e.key)));
@@ -451,7 +451,8 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         keys
     }
 
-    /// Calls `f` with the key of every entry in the cells of the box `[lo, hi]`: the keys
+    /// Calls `f` with the key of every entry in the cells of the box `[lo, hi]` (metres, the
+    /// index's frame): the keys
     /// [`SegmentIndex::in_box`] returns, each as often as it is listed there (a caller that
     /// can mark keys it saw dedups without sorting them all).
     pub fn for_keys_in_box(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(K)) {

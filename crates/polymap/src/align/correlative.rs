@@ -76,13 +76,15 @@ impl Drop for CorrelativeMatcher {
 }
 
 /// The rotations of a window: for each, the points' cells at zero offset, all rotations in
-/// one buffer (one allocation per search instead of two per rotation).
+/// shared buffers (four allocations per search instead of two per rotation).
 #[derive(Debug, Clone, Default)]
 struct Rotations {
     theta_rad: Vec<f64>,
-    /// Per rotation, the smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)`
-    /// (`None` for no cells): a block whose every cell lands inside the raster is summed
-    /// without checks.
+    /// Per rotation, the smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)`,
+    /// when its flat indices are valid: a block whose every cell lands inside the raster is
+    /// summed from them without checks. `None` for no cells, or for a rotation with a cell
+    /// whose flat index does not fit an `i32` (far from a wide raster, where a block's offset
+    /// may still bring it inside): its blocks are summed with checks (the same sums).
     extent: Vec<Option<(i64, i64, i64, i64)>>,
     /// `points` cells per rotation, rotation after rotation; coordinates clamped to
     /// `±CELL_CLAMP` (still outside every raster).
@@ -500,6 +502,7 @@ impl CorrelativeMatcher {
             let (sin, cos) = pose.theta_rad.sin_cos();
             let t = pose.translation();
             let mut extent: Option<(i64, i64, i64, i64)> = None;
+            let mut flat_fits = true;
             for p in points {
                 let q = Vec2::new(cos * p.x - sin * p.y, sin * p.x + cos * p.y) + t;
                 let (x, y) = self.raster.cell_of(q);
@@ -512,11 +515,12 @@ impl CorrelativeMatcher {
                     Some((a, b, c, d)) => (a.min(x), b.min(y), c.max(x), d.max(y)),
                 });
                 out.cells.push((x as i32, y as i32));
-                // Wraps only for cells outside, where it is never read.
-                out.flat.push((y * pw + x) as i32);
+                let flat = i32::try_from(y * pw + x);
+                flat_fits &= flat.is_ok();
+                out.flat.push(flat.unwrap_or(0));
             }
             out.theta_rad.push(theta_rad);
-            out.extent.push(extent);
+            out.extent.push(extent.filter(|_| flat_fits));
         }
         out
     }
@@ -817,6 +821,29 @@ mod tests {
             .unwrap();
         let rival = matcher.rival(&found, 0.95, apart, Until::First);
         assert_eq!((found.best, rival), (seed, None));
+    }
+
+    /// A window centred far off a long, thin raster: cells whose flat index would overflow
+    /// an `i32` at zero offset, brought onto the raster by the window's offsets, are summed
+    /// with checks (once an index out of bounds).
+    #[test]
+    fn a_window_far_off_a_wide_raster_is_searched_with_checks() {
+        let segs = [Segment::new(Vec2::new(0.0, 0.0), Vec2::new(6000.0, 0.0))];
+        let raster = ScoreRaster::of(&segs, &[], 0.1, 0.2);
+        let matcher = CorrelativeMatcher::new(raster);
+        let points = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(2.0, 0.0),
+        ];
+        let window = SearchWindow {
+            center: Pose2::new(3000.0, -4000.0, 0.0),
+            half_xy_m: 4100.0,
+            half_theta_rad: 0.0,
+        };
+        let found = matcher.best(&points, &window, 0.5, &[]).expect("the wall");
+        assert!(found.score > 0.9, "{found:?}");
+        assert!(found.map_from_robot.y_m.abs() < 0.2, "{found:?}");
     }
 
     #[test]

@@ -116,7 +116,8 @@ impl ScoreRaster {
         let (p, q) = (s.start - self.origin, s.end - self.origin);
         // A cell farther than σ from the segment's line scores nothing: skipped by a cross
         // product before the exact distance (a slack of 1e-9 m² over σ², far above the
-        // rounding, keeps every cell that could score; the values are unchanged).
+        // rounding for coordinates and lengths up to about 10⁷ m, keeps every cell that could
+        // score; the values are unchanged).
         let v = s.end - s.start;
         let beyond = (sigma_2 + 1e-9) * v.length_squared();
         for y in y0..=y1 {
