@@ -452,9 +452,8 @@ impl<K: Copy + Ord> SegmentIndex<K> {
     }
 
     /// Calls `f` with the key of every entry in the cells of the box `[lo, hi]` (metres, the
-    /// index's frame): the keys
-    /// [`SegmentIndex::in_box`] returns, each as often as it is listed there (a caller that
-    /// can mark keys it saw dedups without sorting them all).
+    /// index's frame): the keys [`SegmentIndex::in_box`] returns, each as often as it is
+    /// listed there (a caller that can mark keys it saw dedups without sorting them all).
     pub fn for_keys_in_box(&self, lo: Vec2, hi: Vec2, mut f: impl FnMut(K)) {
         self.for_cells(lo, hi, |list| list.iter().for_each(|e| f(e.key)));
     }

@@ -118,7 +118,7 @@ impl ScoreRaster {
         // product before the exact distance (a slack of 1e-9 m² over σ², far above the
         // rounding for coordinates and lengths up to about 10⁷ m, keeps every cell that could
         // score; the values are unchanged).
-        let v = s.end - s.start;
+        let v = s.vector();
         let beyond = (sigma_2 + 1e-9) * v.length_squared();
         for y in y0..=y1 {
             // Only the span of x where the segment, widened by σ, crosses this row.
