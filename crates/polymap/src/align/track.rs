@@ -485,7 +485,8 @@ impl RecentMotion {
 }
 
 /// The window around `prediction`: wider for a larger predicted motion, and for every scan lost
-/// in a row (then over the whole circle).
+/// in a row (then over the whole circle). Its rotation always reaches the anchor's heading
+/// with `min_window_deg` to spare, however far the prediction turned.
 pub fn search_window(
     prediction: &Pose2,
     anchor: &Pose2,
@@ -520,7 +521,11 @@ pub fn search_window(
         .clamp(
             params.min_window_deg,
             params.max_window_deg.max(params.min_window_deg),
-        );
+        )
+        // The anchor's heading stays inside the window: a predicted turn beyond the widest
+        // window (a turn the last step took, perhaps wrongly) must not exclude no turn.
+        .max(normalize_angle_rad(motion.theta_rad).abs().to_degrees() + params.min_window_deg)
+        .min(180.0);
     SearchWindow {
         center: *prediction,
         half_xy_m: half_xy,
@@ -794,6 +799,17 @@ mod tests {
         let w = search_window(&fast, &anchor, &RecentMotion::default(), 0, &p);
         assert!((w.half_xy_m - 0.8).abs() < 1e-9);
         assert!((w.half_theta_rad.to_degrees() - 75.0).abs() < 1e-9);
+        // A predicted turn beyond the widest window (the last step's, perhaps a wrong flip)
+        // still leaves the anchor's heading inside, with the smallest margin, and at most the
+        // whole circle.
+        for (turn_deg, half_deg) in [(80.0, 95.0), (100.0, 115.0), (172.0, 180.0)] {
+            let spun = Pose2::new(0.2, 0.0, f64::to_radians(turn_deg));
+            let w = search_window(&spun, &anchor, &RecentMotion::default(), 0, &p);
+            assert!(
+                (w.half_theta_rad.to_degrees() - half_deg).abs() < 1e-9,
+                "{turn_deg}°"
+            );
+        }
         let lost = search_window(&fast, &anchor, &RecentMotion::default(), 3, &p);
         assert!((lost.half_xy_m - 2.5).abs() < 1e-9);
         assert_eq!(lost.half_theta_rad, std::f64::consts::PI);
