@@ -74,6 +74,7 @@ impl Config {
                 max_gap_m: f64::INFINITY,
                 rejoin_unpaired_pieces: false,
                 local_margin_m: f64::INFINITY,
+                support_cap: 1.0,
                 ..d.merge
             },
             mapper: MapperParams {

@@ -82,6 +82,20 @@ pub fn merged_segment(l1: &Segment, l2: &Segment, ad_rad: f64) -> Option<Segment
     Some(hull_on_line(&ld, l1, l2))
 }
 
+/// [`merged_segment`] with the line placed by weighted lengths: `w1·l1` and `w2·l2` instead of
+/// `l1` and `l2` (a map segment many scans saw moves less towards one new sighting).
+pub fn merged_segment_weighted(
+    l1: &Segment,
+    w1: f64,
+    l2: &Segment,
+    w2: f64,
+    ad_rad: f64,
+) -> Option<Segment> {
+    let ld =
+        DirectedLine::between_lengths(l1, w1 * l1.length(), l2, w2 * l2.length(), unit(ad_rad))?;
+    Some(hull_on_line(&ld, l1, l2))
+}
+
 fn hull_on_line(ld: &DirectedLine, l1: &Segment, l2: &Segment) -> Segment {
     let s = [l1.start, l1.end, l2.start, l2.end].map(|p| ld.direction.dot(p));
     let lo = s.iter().copied().fold(f64::INFINITY, f64::min);
@@ -173,6 +187,18 @@ pub(crate) fn cost_at_most(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn weights_move_the_merged_line_towards_the_heavier_segment() {
+        let l1 = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
+        let l2 = Segment::new(Vec2::new(1.0, 0.2), Vec2::new(3.0, 0.2));
+        let even = merged_segment_weighted(&l1, 1.0, &l2, 1.0, 0.0).unwrap();
+        assert_eq!(Some(even), merged_segment(&l1, &l2, 0.0));
+        let heavy = merged_segment_weighted(&l1, 3.0, &l2, 1.0, 0.0).unwrap();
+        assert!((heavy.start - Vec2::new(0.0, 0.05)).length() < 1e-12);
+        assert!((heavy.end - Vec2::new(3.0, 0.05)).length() < 1e-12);
+    }
+
     use std::f64::consts::FRAC_PI_3;
 
     fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {

@@ -517,8 +517,11 @@ impl Tracker<'_> {
         // search's pose must observe every direction, agree with ICP's pose in the directions
         // ICP did observe (across the axis, and the rotation), and fit as many points.
         let evidence = unobserved.is_some_and(|axis| self.evidence_along(&searched, &result, axis));
-        let search_won =
-            searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0 || evidence;
+        // Nor may it lie beyond the robot's reach since the last `ok` scan: after a lost scan
+        // the window is the whole circle.
+        let search_won = (searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0
+            || evidence)
+            && self.within_reach(&searched.map_from_robot);
         let (kept, other) = match search_won {
             true => (searched, result),
             false => (result, searched),

@@ -54,6 +54,14 @@ pub struct MergeParams {
     /// Locality (an addition): only map segments within this distance (segment to segment) of
     /// a scan segment take part in merging, metres (infinity: the whole map, as in the paper).
     pub local_margin_m: f64,
+    /// Support (an addition): a child of pairing lies on the line between its map and scan
+    /// parents placed by length × support instead of length alone, where a map parent's
+    /// support is the number of scans that saw it (`Observations::seen`), at most this, and a
+    /// scan segment's is 1; dimensionless, at least 1 (1: the paper's, length alone). Without
+    /// it every merge moves a wall a third to a half of the way to the latest scan, so the map
+    /// follows each scan's small error and dense runs drift more than sparse ones. Default 1
+    /// (off): measured in `docs/ARCHITECTURE.md` ("Support"), not yet the default.
+    pub support_cap: f64,
 }
 
 impl Default for MergeParams {
@@ -68,6 +76,7 @@ impl Default for MergeParams {
             insert_min_piece_m: 0.1,
             rejoin_unpaired_pieces: true,
             local_margin_m: 1.0,
+            support_cap: 1.0,
         }
     }
 }
@@ -90,6 +99,7 @@ impl MergeParams {
             )
             .within("insert_min_piece_m", self.insert_min_piece_m, 0.0, 100.0)
             .within("local_margin_m", self.local_margin_m, 0.0, inf)
+            .within("support_cap", self.support_cap, 1.0, 1e6)
             .done()
     }
 }

@@ -2,7 +2,8 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
+use super::{Child, MergeParams, Piece, insert_vertices, restrictive_pairing, simplify};
+use crate::cost::merged_segment_weighted;
 use crate::geometry::{Segment, angle_between_directions_rad};
 use crate::map::{GlobalMap, MapSegment, Observations, SegmentId};
 
@@ -193,7 +194,14 @@ fn pair(
         .children
         .iter()
         .map(|c| Item {
-            segment: c.segment,
+            segment: supported_child(
+                c,
+                &map_pieces,
+                &scan_pieces,
+                records,
+                directions_rad,
+                p.support_cap,
+            ),
             born_scan: t,
             observations: Observations::merged(
                 t,
@@ -228,6 +236,34 @@ fn pair(
         ..MergeDiagnostics::default()
     };
     (items, diagnostics)
+}
+
+/// The child `c` placed by support ([`MergeParams::support_cap`]): on the line of its main
+/// direction between its map parent (support: the scans that saw it, at most the cap) and its
+/// scan parent (support 1), by length × support; its extent the hull of both parents' projections.
+fn supported_child(
+    c: &Child,
+    map_pieces: &[Piece],
+    scan_pieces: &[Piece],
+    records: &[Observations],
+    directions_rad: &[f64],
+    cap: f64,
+) -> Segment {
+    let map = &map_pieces[c.map_parent];
+    let support = records
+        .get(map.source)
+        .map_or(1.0, |o| f64::from(o.seen.max(1)).min(cap));
+    if support <= 1.0 {
+        return c.segment;
+    }
+    merged_segment_weighted(
+        &map.segment,
+        support,
+        &scan_pieces[c.scan_parent].segment,
+        1.0,
+        directions_rad[c.direction],
+    )
+    .unwrap_or(c.segment)
 }
 
 /// Handles of the map segments within `margin_m` of a scan segment, sorted, no repeats.

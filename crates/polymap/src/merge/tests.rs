@@ -379,3 +379,36 @@ fn merged_segments_inherit_their_sources_records() {
     assert_eq!(on(0.85, 1.0), ghost_record);
     assert_eq!(on(3.0, 2.5), Observations::born(9));
 }
+
+/// A child lies between its parents by length × support: a wall many scans saw moves a
+/// little towards one new sighting (support capped by `support_cap`), a wall seen once halfway
+/// as in the paper, and with a cap of 1 every wall halfway.
+#[test]
+fn a_wall_many_scans_saw_moves_little_towards_one_new_sighting() {
+    use crate::map::{GlobalMap, MapSegment, Observations};
+    let child_y = |seen: u32, cap: f64| {
+        let mut map = GlobalMap::default();
+        let mut record = Observations::born(0);
+        for t in 1..seen {
+            record.saw(t);
+        }
+        assert_eq!(record.seen, seen);
+        let wall = MapSegment {
+            segment: seg(0.0, 0.0, 4.0, 0.0),
+            born_scan: 0,
+        };
+        map.insert_observed(wall, record);
+        let params = MergeParams {
+            support_cap: cap,
+            ..MergeParams::default()
+        };
+        merge_scan(&params, &mut map, &[seg(0.0, 0.03, 4.0, 0.03)], &[0.0], 40);
+        assert_eq!(map.len(), 1);
+        map.iter().next().unwrap().1.segment.midpoint().y
+    };
+    let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+    assert!(close(child_y(1, 10.0), 0.015));
+    assert!(close(child_y(6, 10.0), 0.03 / 7.0));
+    assert!(close(child_y(30, 10.0), 0.03 / 11.0));
+    assert!(close(child_y(30, 1.0), 0.015));
+}
