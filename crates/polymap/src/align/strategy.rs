@@ -1064,6 +1064,30 @@ mod tests {
         }
     }
 
+    #[test]
+    fn a_searched_pose_wins_only_within_reach_in_the_time_between_scans() {
+        // Three scans lost: the window is the whole circle and ±2.5 m, and it holds the truth
+        // of [`beyond_the_window`] (2.2 m and 70° from the last `ok` pose, here the guess). The
+        // search's pose wins when the stamps say 2 s passed or say nothing, not 0.1 s later
+        // (FR079: after one lost scan a pose 90° off won and turned the rest of the run).
+        let (world, map, truth, guess) = beyond_the_window();
+        let scene = (&world[..], &map, truth, guess, 3);
+        let tracking = TrackParams {
+            corner_hypotheses: false,
+            ..TrackParams::default()
+        };
+        for (dt_s, wins) in [(Some(0.1), false), (Some(2.0), true), (None, true)] {
+            with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
+                let input = TrackInput { dt_s, ..*t.input };
+                let (result, verdict) = track_scan(&input, t.config);
+                assert!(verdict.searched, "dt {dt_s:?}: {verdict:?}");
+                assert_eq!(verdict.search_won, wins, "dt {dt_s:?}: {verdict:?}");
+                let e = truth.between(&result.expect("a pose").map_from_robot);
+                assert_eq!(e.translation().length() < 0.1, wins, "dt {dt_s:?}: {e:?}");
+            });
+        }
+    }
+
     /// A bare rectangular room fits the scan turned by half a turn about its centre as well as
     /// at the truth: the hypotheses find both poses, each would win on its own, and neither
     /// is taken.
