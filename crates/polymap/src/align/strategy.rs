@@ -8,7 +8,8 @@
 //! 1. **Starts**: the guess; the anchor when they differ (`mapper.also_start_at_anchor`: a
 //!    constant-velocity guess is wrong when a turn starts, stops or reverses); with the
 //!    odometry prior, the constant-velocity guess when it disagrees with odometry
-//!    (`tracking.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn); the best coarse
+//!    (`tracking.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn); after a lost
+//!    scan (a poor fit, which the guess and anchor come from), the last `ok` pose; the best coarse
 //!    rotation ([`rotation_search`]) when the robot turned faster than ICP's basin. With
 //!    `mapper.icp_from_best_start_only`, ICP runs only from the start with the best soft
 //!    inlier score (the first start kept unless beaten by `mapper.start_score_margin`);
@@ -684,6 +685,10 @@ impl Tracker<'_> {
         if let Some(cv) = self.odometry_disagrees() {
             starts.push(cv);
         }
+        // After a lost scan, whose pose is a poor fit, also from the last `ok` pose.
+        if input.lost_streak > 0 && !starts.contains(&input.reference) {
+            starts.push(input.reference);
+        }
         let searched = rotation_search(self.points, input.map, guess, params);
         if searched != guess {
             starts.push(searched);
@@ -1084,6 +1089,36 @@ mod tests {
                 assert_eq!(verdict.search_won, wins, "dt {dt_s:?}: {verdict:?}");
                 let e = truth.between(&result.expect("a pose").map_from_robot);
                 assert_eq!(e.translation().length() < 0.1, wins, "dt {dt_s:?}: {e:?}");
+            });
+        }
+    }
+
+    #[test]
+    fn after_a_lost_scan_icp_also_starts_from_the_last_ok_pose() {
+        // The guess (from the lost scan's pose) is 2.2 m and 70° off; the last `ok` pose is
+        // near the truth (the robot barely moved since). With no search and no corner poses,
+        // only that start reaches the truth, and only while a scan was lost just before.
+        let (world, map, truth, guess) = beyond_the_window();
+        let tracking = TrackParams {
+            window_search: false,
+            corner_hypotheses: false,
+            ..TrackParams::default()
+        };
+        let last_ok = Pose2::new(2.1, 1.9, 66f64.to_radians());
+        for (lost_streak, reached) in [(1, true), (0, false)] {
+            let scene = (&world[..], &map, truth, guess, lost_streak);
+            with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
+                let input = TrackInput {
+                    reference: last_ok,
+                    ..*t.input
+                };
+                let (result, verdict) = track_scan(&input, t.config);
+                let e = truth.between(&result.expect("a pose").map_from_robot);
+                assert_eq!(
+                    e.translation().length() < 0.05,
+                    reached,
+                    "lost {lost_streak}: {e:?} {verdict:?}"
+                );
             });
         }
     }
