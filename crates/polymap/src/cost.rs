@@ -78,8 +78,7 @@ impl DirectedLine {
 /// assert!((ms.end - Vec2::new(3.0, 0.1)).length() < 1e-12);
 /// ```
 pub fn merged_segment(l1: &Segment, l2: &Segment, ad_rad: f64) -> Option<Segment> {
-    let ld = DirectedLine::between(l1, l2, ad_rad)?;
-    Some(hull_on_line(&ld, l1, l2))
+    merged_segment_weighted(l1, 1.0, l2, 1.0, ad_rad)
 }
 
 /// [`merged_segment`] with the line placed by weighted lengths: `w1·l1` and `w2·l2` instead of
@@ -187,18 +186,6 @@ pub(crate) fn cost_at_most(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn weights_move_the_merged_line_towards_the_heavier_segment() {
-        let l1 = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(2.0, 0.0));
-        let l2 = Segment::new(Vec2::new(1.0, 0.2), Vec2::new(3.0, 0.2));
-        let even = merged_segment_weighted(&l1, 1.0, &l2, 1.0, 0.0).unwrap();
-        assert_eq!(Some(even), merged_segment(&l1, &l2, 0.0));
-        let heavy = merged_segment_weighted(&l1, 3.0, &l2, 1.0, 0.0).unwrap();
-        assert!((heavy.start - Vec2::new(0.0, 0.05)).length() < 1e-12);
-        assert!((heavy.end - Vec2::new(3.0, 0.05)).length() < 1e-12);
-    }
-
     use std::f64::consts::FRAC_PI_3;
 
     fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
@@ -207,6 +194,17 @@ mod tests {
 
     fn close(a: f64, b: f64) -> bool {
         (a - b).abs() < 1e-9 * (1.0 + b.abs())
+    }
+
+    #[test]
+    fn weights_move_the_merged_line_towards_the_heavier_segment() {
+        let (l1, l2) = (seg(0.0, 0.0, 2.0, 0.0), seg(1.0, 0.2, 3.0, 0.2));
+        // Equal weights are the paper's placement (y = 0.1); three times the first, y = 0.05.
+        let even = merged_segment_weighted(&l1, 2.0, &l2, 2.0, 0.0).unwrap();
+        assert!((even.start - Vec2::new(0.0, 0.1)).length() < 1e-12);
+        let heavy = merged_segment_weighted(&l1, 3.0, &l2, 1.0, 0.0).unwrap();
+        assert!((heavy.start - Vec2::new(0.0, 0.05)).length() < 1e-12);
+        assert!((heavy.end - Vec2::new(3.0, 0.05)).length() < 1e-12);
     }
 
     #[test]

@@ -685,8 +685,12 @@ impl Tracker<'_> {
         if let Some(cv) = self.odometry_disagrees() {
             starts.push(cv);
         }
-        // After a lost scan, whose pose is a poor fit, also from the last `ok` pose.
-        if input.lost_streak > 0 && !starts.contains(&input.reference) {
+        // After a lost scan, whose pose is a poor fit, also from the last `ok` pose (with
+        // point-to-segment ICP: `--preset paper` stays as it was, as in `within_reach`).
+        if params.method == AlignMethod::PointToSegment
+            && input.lost_streak > 0
+            && !starts.contains(&input.reference)
+        {
             starts.push(input.reference);
         }
         let searched = rotation_search(self.points, input.map, guess, params);
