@@ -3,7 +3,8 @@
 //! ```json
 //! {"version": 2, "units": "m", "frame": "first_scan", "scans": 13631,
 //!  "segments": [{"start": [x, y], "end": [x, y], "born_scan": 0, "length_m": 1.0,
-//!                "last_seen_scan": 90, "seen": 12, "seen_through": 1, "through_since_seen": 0}, ...],
+//!                "last_seen_scan": 90, "seen": 12, "seen_through": 1, "through_since_seen": 0,
+//!                "confirmed": 11}, ...],
 //!  "polylines": [[0, 1, 2], ...]}
 //! ```
 //!
@@ -16,7 +17,8 @@
 //!
 //! `last_seen_scan`, `seen`, `seen_through` and `through_since_seen` are the segment's
 //! [`Observations`] (what later scans saw of it; written together, optional when read: files
-//! from before they were recorded have none).
+//! from before they were recorded have none); `confirmed`, of `seen` the scans tracked `ok`,
+//! is optional too (files from before it was kept count every sighting).
 //!
 //! `frame` names the map frame: [`FRAME_FIRST_SCAN`] (the first scan's pose) or
 //! [`FRAME_ODOMETRY`] (odometry's frame). A polyline lists segment indices in order along it.
@@ -540,11 +542,17 @@ mod tests {
         write_map_json_to(&mut bytes, "map.json", &map).unwrap();
         let text = String::from_utf8(bytes.clone()).unwrap();
         assert!(
-            text.contains("\"seen_through\":1,\"through_since_seen\":1"),
+            text.contains("\"seen_through\":1,\"through_since_seen\":1,\"confirmed\":1"),
             "{text}"
         );
         let back = read_map_json_from(&bytes[..], "map.json").unwrap();
         assert_eq!(back.observations(), Some(records.to_vec()));
+        // Written before `confirmed` was kept: every sighting counts as support.
+        let before = text.replace(",\"confirmed\":1", "");
+        let before = read_map_json_from(before.as_bytes(), "map.json").unwrap();
+        let before = before.observations().unwrap();
+        assert_eq!(before[1].confirmed, None);
+        assert_eq!(before[1].support(), 1);
         let old = r#"{"units": "m", "frame": "first_scan",
             "segments": [{"start": [0, 0], "end": [1, 0], "born_scan": 2, "length_m": 1}],
             "polylines": []}"#;

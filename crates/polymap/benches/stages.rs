@@ -191,7 +191,14 @@ fn bench_merge(c: &mut Criterion, sources: &[Source]) {
                 |mut maps| {
                     for (map, st) in maps.iter_mut().zip(&s.steps) {
                         let t = st.mapper.scans();
-                        black_box(merge_scan(&p, map, &st.scan_in_map, &st.directions_rad, t));
+                        black_box(merge_scan(
+                            &p,
+                            map,
+                            &st.scan_in_map,
+                            &st.directions_rad,
+                            t,
+                            true,
+                        ));
                     }
                     maps
                 },
@@ -220,7 +227,7 @@ fn bench_observe(c: &mut Criterion, sources: &[Source]) {
                 |mut maps| {
                     for (map, st) in maps.iter_mut().zip(&s.steps) {
                         let t = st.mapper.scans();
-                        black_box(observe_scan(map, &st.points, &st.pose, t, &p));
+                        black_box(observe_scan(map, &st.points, &st.pose, t, true, &p));
                     }
                     maps
                 },

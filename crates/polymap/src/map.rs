@@ -58,6 +58,10 @@ pub struct MapSegment {
 /// assert_eq!((o.seen, o.seen_through, o.through_since_seen), (1, 2, 2));
 /// o.saw(9);
 /// assert_eq!((o.last_seen_scan, o.seen, o.through_since_seen), (9, 2, 0));
+/// // A scan tracked `weak` sees it: seen, but no support; the same scan again counts once.
+/// o.saw_by(12, false);
+/// o.saw_by(12, false);
+/// assert_eq!((o.seen, o.support()), (3, 2));
 /// ```
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub struct Observations {
@@ -71,27 +75,53 @@ pub struct Observations {
     /// Of `seen_through`, the scans after `last_seen_scan`: the evidence against the segment
     /// that no sighting has answered since.
     pub through_since_seen: u32,
+    /// Of `seen`, the scans tracked `ok` (a confident fit, every direction observed): the
+    /// sightings trusted to place the segment (its support in a merge,
+    /// [`crate::merge::MergeParams::support_cap`]). `None` in a record read from a map written
+    /// before it was kept: there every sighting counts ([`Observations::support`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub confirmed: Option<u32>,
 }
 
 impl Observations {
-    /// The record of a segment made (so seen) by the merge of scan `t`.
+    /// The record of a segment made (so seen) by the merge of scan `t`, a scan tracked `ok`.
     pub fn born(t: u32) -> Self {
+        Self::born_by(t, true)
+    }
+
+    /// The record of a segment made (so seen) by the merge of scan `t`; `confirmed`: the scan
+    /// was tracked `ok`.
+    pub fn born_by(t: u32, confirmed: bool) -> Self {
         Observations {
             last_seen_scan: t,
             seen: 1,
             seen_through: 0,
             through_since_seen: 0,
+            confirmed: Some(u32::from(confirmed)),
         }
     }
 
-    /// Scan `t` saw the segment (a scan counts once: the merge that made the segment at `t`
-    /// and the rays of the same scan are one sighting).
+    /// Scan `t`, tracked `ok`, saw the segment ([`Observations::saw_by`]).
     pub fn saw(&mut self, t: u32) {
+        self.saw_by(t, true);
+    }
+
+    /// Scan `t` saw the segment (a scan counts once: the merge that made the segment at `t`
+    /// and the rays of the same scan are one sighting); `confirmed`: the scan was tracked `ok`.
+    pub fn saw_by(&mut self, t: u32, confirmed: bool) {
         if self.seen == 0 || self.last_seen_scan != t {
+            let support = self.support().saturating_add(u32::from(confirmed));
             self.seen = self.seen.saturating_add(1);
+            self.confirmed = Some(support.min(self.seen));
         }
         self.last_seen_scan = self.last_seen_scan.max(t);
         self.through_since_seen = 0;
+    }
+
+    /// The sightings that place the segment: `confirmed`, or every sighting (`seen`) in a
+    /// record from before `confirmed` was kept.
+    pub fn support(&self) -> u32 {
+        self.confirmed.unwrap_or(self.seen)
     }
 
     /// A scan saw through the segment.
@@ -110,14 +140,23 @@ impl Observations {
             seen: a.seen.max(b.seen),
             seen_through: a.seen_through.max(b.seen_through),
             through_since_seen: a.through_since_seen.min(b.through_since_seen),
+            confirmed: match (a.confirmed, b.confirmed) {
+                (None, None) => None,
+                _ => Some(a.support().max(b.support())),
+            },
         })
     }
 
     /// The record of a segment that the merge of scan `t` made from segments with records
-    /// `sources` and the scan's own sighting: [`Observations::combined`], seen at `t`.
-    pub fn merged(t: u32, sources: impl IntoIterator<Item = Observations>) -> Self {
+    /// `sources` and the scan's own sighting: [`Observations::combined`], seen at `t`
+    /// (`confirmed`: the scan was tracked `ok`).
+    pub fn merged(
+        t: u32,
+        confirmed: bool,
+        sources: impl IntoIterator<Item = Observations>,
+    ) -> Self {
         let mut o = Observations::combined(sources).unwrap_or_default();
-        o.saw(t);
+        o.saw_by(t, confirmed);
         o
     }
 }

@@ -168,7 +168,8 @@ impl Default for Crossings {
 
 /// Records what scan `t` (its valid returns `points_in_robot`, robot frame, metres, in beam
 /// order, seen from `map_from_robot`) says about the map segments it looks at, in their
-/// [`crate::map::Observations`]; see the module docs. Does nothing when the scan neither moved
+/// [`crate::map::Observations`] (`confirmed`: the scan was tracked `ok`, so its sightings
+/// count towards a segment's support); see the module docs. Does nothing when the scan neither moved
 /// nor turned far enough since the last observing scan, or `params.enabled` is false.
 ///
 /// ```
@@ -180,7 +181,7 @@ impl Default for Crossings {
 /// let (ghost, far) = (map.insert(wall(2.0)), map.insert(wall(4.0)));
 /// // Returns from the far wall only: the rays pass all along where the ghost stands.
 /// let points: Vec<Vec2> = (-10..=10).map(|i| Vec2::new(4.0, 0.2 * i as f64)).collect();
-/// let out = observe_scan(&mut map, &points, &Pose2::IDENTITY, 5, &ObserveParams::default());
+/// let out = observe_scan(&mut map, &points, &Pose2::IDENTITY, 5, true, &ObserveParams::default());
 /// assert_eq!((out.seen, out.seen_through), (1, 1));
 /// assert_eq!(map.observations(ghost).unwrap().through_since_seen, 1);
 /// assert_eq!(map.observations(far).unwrap().last_seen_scan, 5);
@@ -190,6 +191,7 @@ pub fn observe_scan(
     points_in_robot: &[Vec2],
     map_from_robot: &Pose2,
     t: u32,
+    confirmed: bool,
     params: &ObserveParams,
 ) -> ObserveOutcome {
     if !params.enabled || !moved_enough(map.observed_from(), map_from_robot, params) {
@@ -219,7 +221,7 @@ pub fn observe_scan(
             continue;
         };
         if c.seen {
-            o.saw(t);
+            o.saw_by(t, confirmed);
             outcome.seen += 1;
         } else if through {
             o.saw_through();

@@ -525,6 +525,10 @@ impl Mapper {
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
         // which is not where it is sure to be: one wrong scan in the map misleads the next.
+        // Only a scan tracked `ok` adds to the support that holds a wall in place: a `weak`
+        // scan's pose may have slid along a wall it sees, and its sightings would anchor
+        // what it placed there.
+        let confirmed = tracking.verdict == Verdict::Ok;
         let scan_in_map: Vec<Segment> = if !enters {
             Vec::new()
         } else {
@@ -543,6 +547,7 @@ impl Mapper {
             &scan_in_map,
             &directions,
             t,
+            confirmed,
         )
         .diagnostics;
         if enters {
@@ -551,6 +556,7 @@ impl Mapper {
                 &scan.points_in_robot,
                 &pose,
                 t,
+                confirmed,
                 &self.config.observe,
             );
         }

@@ -85,7 +85,7 @@ pub fn merge_map(
         let segments: Vec<Segment> = piece.iter().map(|s| s.segment).collect();
         let local = local_directions(map, &segments, directions, params.directions_reach_m);
         let t = born_offset.saturating_add(piece[0].born_scan);
-        let r = merge_scan(merge, map, &segments, &local, t);
+        let r = merge_scan(merge, map, &segments, &local, t, true);
         result.pieces += 1;
         result.removed += r.removed;
         result.added += r.added;

@@ -56,11 +56,13 @@ pub struct MergeParams {
     pub local_margin_m: f64,
     /// Support (an addition): a child of pairing lies on the line between its map and scan
     /// parents placed by length × support instead of length alone, where a map parent's
-    /// support is the number of scans that saw it (`Observations::seen`), at most this, and a
-    /// scan segment's is 1; dimensionless, at least 1 (1: the paper's, length alone). Without
-    /// it every merge moves a wall a third to a half of the way to the latest scan, so the map
-    /// follows each scan's small error and dense runs drift more than sparse ones. Default 1
-    /// (off): measured in `docs/ARCHITECTURE.md` ("Support"), not yet the default.
+    /// support is the number of scans tracked `ok` that saw it
+    /// ([`crate::map::Observations::support`]), at most this, and a scan segment's is 1;
+    /// dimensionless, at least 1 (1: the paper's, length alone). Without it every merge moves a
+    /// wall a third to a half of the way to the latest scan, so the map follows each scan's
+    /// small error and dense runs drift more than sparse ones. `weak` scans do not add
+    /// support: along a wall they may have slid, and what they placed must stay movable.
+    /// Measured in `docs/ARCHITECTURE.md` ("Support").
     pub support_cap: f64,
 }
 

@@ -74,7 +74,7 @@ pub struct MergeResult {
 /// });
 /// // The same wall seen again, 1 cm off and a little longer: one segment remains.
 /// let scan = [Segment::new(Vec2::new(0.5, 0.01), Vec2::new(5.0, 0.01))];
-/// let result = merge_scan(&MergeParams::default(), &mut map, &scan, &[0.0], 1);
+/// let result = merge_scan(&MergeParams::default(), &mut map, &scan, &[0.0], 1, true);
 /// assert_eq!(map.len(), 1);
 /// assert_eq!(result.diagnostics.local_map_segments, 1);
 /// ```
@@ -84,6 +84,7 @@ pub fn merge_scan(
     scan: &[Segment],
     directions_rad: &[f64],
     t: u32,
+    confirmed: bool,
 ) -> MergeResult {
     let ids = local_ids(map, scan, params.local_margin_m);
     let c1: Vec<MapSegment> = ids.iter().filter_map(|id| map.get(*id).copied()).collect();
@@ -91,7 +92,8 @@ pub fn merge_scan(
         .iter()
         .map(|id| map.observations(*id).unwrap_or_default())
         .collect();
-    let (items, mut diagnostics) = pair(&c1, &records, scan, directions_rad, t, params);
+    let sighting = (t, confirmed);
+    let (items, mut diagnostics) = pair(&c1, &records, scan, directions_rad, sighting, params);
     let simplified = simplify(
         &items.iter().map(|i| i.segment).collect::<Vec<_>>(),
         directions_rad,
@@ -120,7 +122,7 @@ pub fn merge_scan(
                     segment: s.segment,
                     born_scan: t,
                 },
-                inherited(&items, &s.segment, t),
+                inherited(&items, &s.segment, sighting),
             )),
         }
     }
@@ -143,7 +145,7 @@ pub fn merge_scan(
 /// The record of a segment that simplification merged at scan `t`, from the members of `A_t`
 /// near it and roughly parallel: seen at `t` when one of them was (a child or a scan segment), else only their
 /// records combined (merging old pieces the scan did not see is no sighting).
-fn inherited(items: &[Item], merged: &Segment, t: u32) -> Observations {
+fn inherited(items: &[Item], merged: &Segment, (t, confirmed): (u32, bool)) -> Observations {
     let direction = merged.direction_rad();
     let (lo, hi) = merged.bounds();
     let grow = crate::geometry::Vec2::splat(INHERIT_WITHIN_M);
@@ -167,7 +169,7 @@ fn inherited(items: &[Item], merged: &Segment, t: u32) -> Observations {
     let seen_now = near.iter().any(|o| o.last_seen_scan == t && o.seen > 0);
     match Observations::combined(near.iter().copied()) {
         Some(o) if !seen_now => o,
-        _ => Observations::merged(t, near),
+        _ => Observations::merged(t, confirmed, near),
     }
 }
 
@@ -179,7 +181,7 @@ fn pair(
     records: &[Observations],
     scan: &[Segment],
     directions_rad: &[f64],
-    t: u32,
+    (t, confirmed): (u32, bool),
     p: &MergeParams,
 ) -> (Vec<Item>, MergeDiagnostics) {
     let c1_segs: Vec<Segment> = c1.iter().map(|s| s.segment).collect();
@@ -205,6 +207,7 @@ fn pair(
             born_scan: t,
             observations: Observations::merged(
                 t,
+                confirmed,
                 map_pieces
                     .get(c.map_parent)
                     .and_then(|p| records.get(p.source))
@@ -226,7 +229,7 @@ fn pair(
         &scan_pieces,
         &pairing.scan_is_parent,
         rejoin,
-        |i| (scan[i], t, Observations::born(t), None),
+        |i| (scan[i], t, Observations::born_by(t, confirmed), None),
     );
     let diagnostics = MergeDiagnostics {
         map_pieces: map_pieces.len(),
@@ -239,8 +242,9 @@ fn pair(
 }
 
 /// The child `c` placed by support ([`MergeParams::support_cap`]): on the line of its main
-/// direction between its map parent (support: the scans that saw it, at most the cap) and its
-/// scan parent (support 1), by length × support; its extent the hull of both parents' projections.
+/// direction between its map parent (support: the scans tracked `ok` that saw it,
+/// [`Observations::support`], at most the cap) and its scan parent (support 1), by length ×
+/// support; its extent the hull of both parents' projections.
 fn supported_child(
     c: &Child,
     map_pieces: &[Piece],
@@ -252,7 +256,7 @@ fn supported_child(
     let map = &map_pieces[c.map_parent];
     let support = records
         .get(map.source)
-        .map_or(1.0, |o| f64::from(o.seen.max(1)).min(cap));
+        .map_or(1.0, |o| f64::from(o.support().max(1)).min(cap));
     if support <= 1.0 {
         return c.segment;
     }

@@ -360,6 +360,7 @@ fn merged_segments_inherit_their_sources_records() {
         &scan,
         &[0.0, deg(90.0)],
         9,
+        true,
     );
     let records: Vec<(Segment, Observations)> = map
         .iter()
@@ -380,19 +381,23 @@ fn merged_segments_inherit_their_sources_records() {
     assert_eq!(on(3.0, 2.5), Observations::born(9));
 }
 
-/// A child lies between its parents by length × support: a wall many scans saw moves a
-/// little towards one new sighting (support capped by `support_cap`), a wall seen once halfway
-/// as in the paper, and with a cap of 1 every wall halfway.
+/// A child lies between its parents by length × support: a wall many scans tracked `ok` saw
+/// moves a little towards one new sighting (support capped by `support_cap`), a wall seen once
+/// halfway as in the paper, and with a cap of 1 every wall halfway. Sightings by `weak` scans
+/// add no support; a record from a map written before support was kept counts every sighting.
 #[test]
 fn a_wall_many_scans_saw_moves_little_towards_one_new_sighting() {
     use crate::map::{GlobalMap, MapSegment, Observations};
-    let child_y = |seen: u32, cap: f64| {
-        let mut map = GlobalMap::default();
-        let mut record = Observations::born(0);
+    let record = |seen: u32, confirmed: bool| {
+        let mut record = Observations::born_by(0, confirmed);
         for t in 1..seen {
-            record.saw(t);
+            record.saw_by(t, confirmed);
         }
         assert_eq!(record.seen, seen);
+        record
+    };
+    let child_y = |record: Observations, cap: f64| {
+        let mut map = GlobalMap::default();
         let wall = MapSegment {
             segment: seg(0.0, 0.0, 4.0, 0.0),
             born_scan: 0,
@@ -402,13 +407,20 @@ fn a_wall_many_scans_saw_moves_little_towards_one_new_sighting() {
             support_cap: cap,
             ..MergeParams::default()
         };
-        merge_scan(&params, &mut map, &[seg(0.0, 0.03, 4.0, 0.03)], &[0.0], 40);
+        let scan = [seg(0.0, 0.03, 4.0, 0.03)];
+        merge_scan(&params, &mut map, &scan, &[0.0], 40, true);
         assert_eq!(map.len(), 1);
         map.iter().next().unwrap().1.segment.midpoint().y
     };
     let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
-    assert!(close(child_y(1, 10.0), 0.015));
-    assert!(close(child_y(6, 10.0), 0.03 / 7.0));
-    assert!(close(child_y(30, 10.0), 0.03 / 11.0));
-    assert!(close(child_y(30, 1.0), 0.015));
+    assert!(close(child_y(record(1, true), 10.0), 0.015));
+    assert!(close(child_y(record(6, true), 10.0), 0.03 / 7.0));
+    assert!(close(child_y(record(30, true), 10.0), 0.03 / 11.0));
+    assert!(close(child_y(record(30, true), 1.0), 0.015));
+    assert!(close(child_y(record(30, false), 10.0), 0.015));
+    let older = Observations {
+        confirmed: None,
+        ..record(30, false)
+    };
+    assert!(close(child_y(older, 10.0), 0.03 / 11.0));
 }

@@ -59,7 +59,7 @@ fn a_ghost_is_seen_through_and_pruned_and_the_walls_stay() {
     let p = ObserveParams::default();
     for k in 0..6 {
         let pose = Pose2::new(1.0 + 0.3 * k as f64, 3.0, 0.0);
-        let out = observe_scan(&mut map, &scan_of(&room, &pose), &pose, k + 1, &p);
+        let out = observe_scan(&mut map, &scan_of(&room, &pose), &pose, k + 1, true, &p);
         assert!(out.observed && out.rays > 80, "{out:?}");
     }
     let o = map.observations(ghost).unwrap();
@@ -82,7 +82,14 @@ fn a_wall_seen_from_both_sides_is_never_seen_through() {
         .iter()
         .enumerate()
     {
-        observe_scan(&mut map, &scan_of(&[wall], pose), pose, k as u32 + 1, &p);
+        observe_scan(
+            &mut map,
+            &scan_of(&[wall], pose),
+            pose,
+            k as u32 + 1,
+            true,
+            &p,
+        );
     }
     let o = map.observations(id).unwrap();
     assert_eq!((o.seen, o.seen_through, o.last_seen_scan), (3, 0, 2));
@@ -107,6 +114,7 @@ fn the_far_face_of_a_thick_wall_is_not_seen_through() {
         &scan_of(&[near], &pose),
         &pose,
         1,
+        true,
         &params_every_scan(),
     );
     assert_eq!(out.seen_through, 0);
@@ -133,7 +141,7 @@ fn rays_grazing_along_a_wall_do_not_see_through_it() {
         segment: end,
         born_scan: 0,
     });
-    let out = observe_scan(&mut map, &points, &pose, 1, &params_every_scan());
+    let out = observe_scan(&mut map, &points, &pose, 1, true, &params_every_scan());
     assert!(out.rays > 0);
     assert_eq!(map.observations(id).unwrap().seen_through, 0);
 }
@@ -158,7 +166,7 @@ fn a_wall_overshooting_a_doorway_is_not_contradicted_through_the_door() {
         segment: beyond,
         born_scan: 0,
     });
-    observe_scan(&mut map, &points, &pose, 1, &params_every_scan());
+    observe_scan(&mut map, &points, &pose, 1, true, &params_every_scan());
     assert_eq!(map.observations(id).unwrap().seen_through, 0);
 }
 
@@ -173,12 +181,12 @@ fn a_robot_standing_still_observes_once() {
     let p = ObserveParams::default();
     let pose = Pose2::new(1.0, 0.0, 0.0);
     let points = scan_of(&[wall], &pose);
-    assert!(observe_scan(&mut map, &points, &pose, 1, &p).observed);
-    assert!(!observe_scan(&mut map, &points, &pose, 2, &p).observed);
+    assert!(observe_scan(&mut map, &points, &pose, 1, true, &p).observed);
+    assert!(!observe_scan(&mut map, &points, &pose, 2, true, &p).observed);
     let moved = Pose2::new(1.3, 0.0, 0.0);
-    assert!(observe_scan(&mut map, &points, &moved, 3, &p).observed);
+    assert!(observe_scan(&mut map, &points, &moved, 3, true, &p).observed);
     let turned = Pose2::new(1.3, 0.0, 0.3);
-    assert!(observe_scan(&mut map, &points, &turned, 4, &p).observed);
+    assert!(observe_scan(&mut map, &points, &turned, 4, true, &p).observed);
 }
 
 #[test]
@@ -279,6 +287,7 @@ fn a_doubled_room_is_seen_through_and_a_true_one_is_not() {
                 &scan_of(&room, &true_pose),
                 &mapped_pose,
                 k + 1,
+                true,
                 &p,
             );
         }
