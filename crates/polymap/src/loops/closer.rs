@@ -2,6 +2,8 @@
 //! completed node handed to the graph, and the graph's outcome taken in at a fixed later scan
 //! as a correction of the node poses.
 
+use glam::DMat2;
+
 use crate::align::AlignParams;
 use crate::geometry::{Pose2, Segment, Vec2};
 
@@ -14,6 +16,9 @@ use super::{Correction, LoopDiagnostics, LoopFailure, LoopParams};
 struct OpenNode {
     /// Its pose relative to the node before (the mapper's motion between their first scans).
     from_previous: Option<Pose2>,
+    /// The doubt on that motion beyond a confident match's ([`MotionDoubt`]), m², in this
+    /// node's frame.
+    doubt_m2: DMat2,
     submap: Submap,
     /// Cells of the kept points, for thinning.
     cells: rustc_hash::FxHashSet<(i64, i64)>,
@@ -58,6 +63,40 @@ pub struct LoopCloser {
     first_new: usize,
     /// The first scan (`t`) of each of this run's nodes.
     node_starts: Vec<u32>,
+    /// The last scan's pose, map frame.
+    last_scan: Option<Pose2>,
+    /// The doubt ([`MotionDoubt`]) on the motion since the open node's first scan, m², map
+    /// frame.
+    doubt_m2: DMat2,
+}
+
+/// How far the mapper's motion into a scan may be off beyond a confident match's error, for
+/// the pose graph's sequential edges (`LoopParams::doubtful_step_sigma`).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum MotionDoubt {
+    /// Tracked `ok`: no more than any match.
+    #[default]
+    None,
+    /// The translation along this map-frame unit vector was not observed (a corridor's axis):
+    /// the motion along it came from the motion prior.
+    Along(Vec2),
+}
+
+impl MotionDoubt {
+    /// The covariance this doubt adds to a step of `step_m` metres, m², map frame: a standard
+    /// deviation of `params.doubtful_step_sigma` × the step (at least
+    /// `params.sequential_sigma_m`) along the unobserved direction.
+    fn covariance_m2(&self, step_m: f64, params: &LoopParams) -> DMat2 {
+        if params.doubtful_step_sigma <= 0.0 {
+            return DMat2::ZERO;
+        }
+        let sigma = (params.doubtful_step_sigma * step_m).max(params.sequential_sigma_m);
+        let variance = sigma * sigma;
+        match self {
+            MotionDoubt::None => DMat2::ZERO,
+            MotionDoubt::Along(u) => DMat2::from_cols(*u * u.x, *u * u.y) * variance,
+        }
+    }
 }
 
 impl LoopCloser {
@@ -83,6 +122,8 @@ impl LoopCloser {
             failure: None,
             first_new: 0,
             node_starts: Vec::new(),
+            last_scan: None,
+            doubt_m2: DMat2::ZERO,
         }
     }
 
@@ -172,27 +213,39 @@ impl LoopCloser {
     }
 
     /// Records scan `t` (scans come in order, from 0, without gaps) at `map_from_robot` with
-    /// its points and segments (robot frame). When the scan completes a node, the node goes
-    /// to the graph, and the graph's outcome for an earlier node is taken in: returns the
-    /// correction when nodes moved. Call [`LoopCloser::finish`] after the last scan.
+    /// its points and segments (robot frame), and the doubt on the motion into it. When the
+    /// scan completes a node, the node goes to the graph, and the graph's outcome for an
+    /// earlier node is taken in: returns the correction when nodes moved. Call
+    /// [`LoopCloser::finish`] after the last scan.
     pub fn add_scan(
         &mut self,
         t: u32,
         map_from_robot: Pose2,
-        points_in_robot: &[Vec2],
-        segments_in_robot: &[Segment],
+        (points_in_robot, segments_in_robot): (&[Vec2], &[Segment]),
+        doubt: MotionDoubt,
         diagnostics: &mut LoopDiagnostics,
     ) -> Option<Correction> {
         if self.failure.is_some() {
             return None;
+        }
+        if let Some(last) = self.last_scan.replace(map_from_robot) {
+            let step_m = (map_from_robot.translation() - last.translation()).length();
+            self.doubt_m2 += doubt.covariance_m2(step_m, &self.params);
         }
         if self.open.is_none() {
             self.node_starts.push(t);
             // A saved map's last node is no neighbour of this run's first: no motion joins them.
             let first = self.node_starts.len() == 1;
             let previous = self.poses.last().filter(|_| !first);
+            // The doubt since the node before, turned into this node's frame (the frame of
+            // the sequential edge's residual).
+            let (s, c) = map_from_robot.theta_rad.sin_cos();
+            let to_node = DMat2::from_cols(glam::DVec2::new(c, -s), glam::DVec2::new(s, c));
+            let since = std::mem::replace(&mut self.doubt_m2, DMat2::ZERO);
+            let doubt_m2 = to_node * since * to_node.transpose();
             self.open = Some(OpenNode {
                 from_previous: previous.map(|last| last.between(&map_from_robot)),
+                doubt_m2,
                 last: map_from_robot,
                 ..OpenNode::default()
             });
@@ -240,6 +293,7 @@ impl LoopCloser {
             node: k,
             pose: self.poses[k],
             from_previous: open.from_previous,
+            doubt_m2: open.doubt_m2,
             submap: open.submap,
         });
         let due = k.checked_sub(self.params.apply_after_nodes)?;

@@ -1,7 +1,7 @@
 //! A 2D pose graph and its least-squares solution (Gauss–Newton, preconditioned conjugate
 //! gradients on the sparse normal equations, Cauchy weights on loop edges).
 
-use glam::{DMat3, DVec3};
+use glam::{DMat2, DMat3, DVec2, DVec3};
 
 use crate::geometry::{Pose2, normalize_angle_rad};
 
@@ -18,6 +18,10 @@ pub struct Edge {
     pub sigma_m: f64,
     /// Standard deviation of the rotation, radians.
     pub sigma_rad: f64,
+    /// Covariance of the translation beyond `sigma_m`, m², in the frame of `to` as measured
+    /// (the residual's frame): the motion the mapper could not confirm (a sequential edge over
+    /// `weak` scans); zero for a loop edge.
+    pub doubt_m2: DMat2,
     /// A loop edge gets a robust (Cauchy) weight; a sequential edge is trusted.
     pub robust: bool,
 }
@@ -58,9 +62,17 @@ fn residual(e: &Edge, a: &Pose2, b: &Pose2) -> (DVec3, DMat3, DMat3) {
     (r, ja, jb)
 }
 
-/// `J1ᵀ W J2` for the diagonal weight `W = diag(w)`.
-fn jt_w_j(j1: &DMat3, w: DVec3, j2: &DMat3) -> DMat3 {
-    let weighted_t = DMat3::from_cols(j1.row(0) * w.x, j1.row(1) * w.y, j1.row(2) * w.z);
+/// `J1ᵀ W J2` (for a diagonal `W` as the rows of `J1` scaled, the same sums as ever).
+fn jt_w_j(j1: &DMat3, w: &DMat3, j2: &DMat3) -> DMat3 {
+    let diagonal = w.x_axis.y == 0.0 && w.y_axis.x == 0.0;
+    let weighted_t = match diagonal {
+        true => DMat3::from_cols(
+            j1.row(0) * w.x_axis.x,
+            j1.row(1) * w.y_axis.y,
+            j1.row(2) * w.z_axis.z,
+        ),
+        false => j1.transpose() * *w,
+    };
     weighted_t * *j2
 }
 
@@ -151,12 +163,12 @@ fn normal_equations(
         let (ia, ib) = (index(e.from), index(e.to));
         for (i, j) in [(ia, &ja), (ib, &jb)] {
             if let Some(i) = i {
-                diag[i] += jt_w_j(j, w, j);
+                diag[i] += jt_w_j(j, &w, j);
                 g[i] += j.transpose() * wr_v;
             }
         }
         if let (Some(a), Some(b)) = (ia, ib) {
-            off.push((a, b, jt_w_j(&ja, w, &jb)));
+            off.push((a, b, jt_w_j(&ja, &w, &jb)));
         }
     }
     for d in &mut diag {
@@ -165,16 +177,37 @@ fn normal_equations(
     (diag, off, g)
 }
 
-/// The weights of an edge's residual `r`: inverse variances, times the Cauchy weight for a
-/// loop edge.
-fn weights(e: &Edge, r: DVec3) -> DVec3 {
+/// The weight (information) matrix of an edge's residual `r`: the inverse of the translation's
+/// covariance (`sigma_m`² plus `doubt_m2`) and of the rotation's variance, times the Cauchy
+/// weight for a loop edge.
+fn weights(e: &Edge, r: DVec3) -> DMat3 {
     let wt = 1.0 / (e.sigma_m * e.sigma_m);
     let wr = 1.0 / (e.sigma_rad * e.sigma_rad);
-    let w = DVec3::new(wt, wt, wr);
+    let translation = match e.doubt_m2 == DMat2::ZERO {
+        // The common case, computed as inverse variances (no 2×2 inverse's rounding).
+        true => DMat2::from_diagonal(DVec2::splat(wt)),
+        false => {
+            let t =
+                (DMat2::from_diagonal(DVec2::splat(e.sigma_m * e.sigma_m)) + e.doubt_m2).inverse();
+            if t.is_finite() {
+                t
+            } else {
+                DMat2::from_diagonal(DVec2::splat(wt))
+            }
+        }
+    };
+    let w = DMat3::from_cols(
+        translation.x_axis.extend(0.0),
+        translation.y_axis.extend(0.0),
+        DVec3::new(0.0, 0.0, wr),
+    );
     if !e.robust {
         return w;
     }
-    let chi2 = r.x * r.x * wt + r.y * r.y * wt + r.z * r.z * wr;
+    let chi2 = match e.doubt_m2 == DMat2::ZERO {
+        true => r.x * r.x * wt + r.y * r.y * wt + r.z * r.z * wr,
+        false => r.dot(w * r),
+    };
     w * (1.0 / (1.0 + chi2 / (CAUCHY_SCALE * CAUCHY_SCALE)))
 }
 
@@ -238,7 +271,45 @@ mod tests {
             measured,
             sigma_m: 0.05,
             sigma_rad: 0.01,
+            doubt_m2: DMat2::ZERO,
             robust,
+        }
+    }
+
+    /// A corridor of six 1 m steps whose middle two were not observed along it (doubted along
+    /// x): the loop edge that finds the end 0.4 m short of the chain puts the correction into
+    /// the doubted steps and leaves the observed ones as measured; without the doubt it
+    /// spreads over every step.
+    #[test]
+    fn a_loop_correction_goes_where_the_motion_was_doubted() {
+        let step = Pose2::new(1.0, 0.0, 0.0);
+        let steps_after = |doubt: f64| {
+            let mut poses: Vec<Pose2> = (0..7).map(|i| Pose2::new(i as f64, 0.0, 0.0)).collect();
+            let mut edges: Vec<Edge> = (0..6)
+                .map(|i| Edge {
+                    doubt_m2: match i {
+                        2 | 3 => DMat2::from_cols(DVec2::new(doubt, 0.0), DVec2::ZERO),
+                        _ => DMat2::ZERO,
+                    },
+                    ..edge(i, i + 1, step, false)
+                })
+                .collect();
+            edges.push(edge(0, 6, Pose2::new(5.6, 0.0, 0.0), false));
+            optimize(&mut poses, &edges, 1..7, 20);
+            (0..6)
+                .map(|i| poses[i + 1].x_m - poses[i].x_m)
+                .collect::<Vec<_>>()
+        };
+        let doubted = steps_after(0.5 * 0.5);
+        for (i, s) in doubted.iter().enumerate() {
+            match i {
+                2 | 3 => assert!((s - 0.8).abs() < 0.01, "step {i}: {doubted:?}"),
+                _ => assert!((s - 1.0).abs() < 0.01, "step {i}: {doubted:?}"),
+            }
+        }
+        let even = steps_after(0.0);
+        for s in &even {
+            assert!((s - 5.6 / 6.0).abs() < 0.01, "{even:?}");
         }
     }
 

@@ -44,7 +44,7 @@ mod worker;
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::Pose2;
-pub use closer::{LoopCloser, SavedNode};
+pub use closer::{LoopCloser, MotionDoubt, SavedNode};
 pub use graph::Edge;
 pub use params::{LoopParams, MAX_SEARCH_STARTS};
 

@@ -22,6 +22,8 @@ pub(super) struct NodeDone {
     pub(super) pose: Pose2,
     /// The mapper's motion from the node before.
     pub(super) from_previous: Option<Pose2>,
+    /// The doubt on that motion beyond a confident match's, m², in this node's frame.
+    pub(super) doubt_m2: glam::DMat2,
     pub(super) submap: Submap,
 }
 
@@ -123,6 +125,7 @@ impl NodeGraph {
                     measured: z,
                     sigma_m: self.params.sequential_sigma_m,
                     sigma_rad: self.params.sequential_sigma_deg.to_radians(),
+                    doubt_m2: done.doubt_m2,
                     robust: false,
                 });
                 last.compose(&z)
@@ -149,6 +152,7 @@ impl NodeGraph {
                 measured,
                 sigma_m: self.params.loop_sigma_m,
                 sigma_rad: self.params.loop_sigma_deg.to_radians(),
+                doubt_m2: glam::DMat2::ZERO,
                 robust: true,
             });
         }

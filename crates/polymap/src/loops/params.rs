@@ -61,6 +61,13 @@ pub struct LoopParams {
     pub sequential_sigma_m: f64,
     /// ...and rotation, degrees.
     pub sequential_sigma_deg: f64,
+    /// A scan tracked `weak` for want of a direction (`degenerate`, `weakly_observed`: its
+    /// motion along that direction came from the motion prior) adds to its sequential edge a
+    /// standard deviation of this share of its step (at least `sequential_sigma_m`) along
+    /// that direction. A loop correction then goes where the motion was least known (along a
+    /// bare corridor) instead of spreading evenly over every scan. Dimensionless; 0: every
+    /// sequential edge alike.
+    pub doubtful_step_sigma: f64,
     /// Standard deviation of a loop edge's translation, metres...
     pub loop_sigma_m: f64,
     /// ...and rotation, degrees.
@@ -106,6 +113,7 @@ impl Default for LoopParams {
             max_ambiguity: 0.9,
             sequential_sigma_m: 0.05,
             sequential_sigma_deg: 0.5,
+            doubtful_step_sigma: 1.0,
             loop_sigma_m: 0.05,
             loop_sigma_deg: 0.5,
             confirm_above_m: 0.3,
@@ -158,6 +166,7 @@ impl LoopParams {
                 0.0,
                 finite,
             )
+            .within("doubtful_step_sigma", self.doubtful_step_sigma, 0.0, 100.0)
             .above("loop_sigma_m", self.loop_sigma_m, 0.0, finite)
             .above("loop_sigma_deg", self.loop_sigma_deg, 0.0, finite)
             .within("confirm_above_m", self.confirm_above_m, 0.0, 1e4)

@@ -115,8 +115,8 @@ fn feed(
     closer.add_scan(
         t as u32,
         poses[t],
-        &prepared.points_in_robot,
-        &prepared.segments_in_robot,
+        (&prepared.points_in_robot, &prepared.segments_in_robot),
+        MotionDoubt::None,
         d,
     )
 }
@@ -349,7 +349,13 @@ fn a_failure_of_the_graph_stops_loop_closure_and_is_reported() {
     // Nothing more is handed to the graph.
     let points = [Vec2::new(1.0, 0.0)];
     for t in 0..100 {
-        let c = closer.add_scan(t, Pose2::IDENTITY, &points, &[], &mut diagnostics);
+        let c = closer.add_scan(
+            t,
+            Pose2::IDENTITY,
+            (&points, &[]),
+            MotionDoubt::None,
+            &mut diagnostics,
+        );
         assert_eq!(c, None);
     }
     assert_eq!(closer.loop_edges(), 0);
@@ -373,7 +379,13 @@ fn nodes_end_after_their_travel_or_their_scans() {
     // 0.5 m per scan for 20 scans, then standing still for 30.
     let pose = |t: u32| Pose2::new(0.5 * t.min(20) as f64, 0.0, 0.0);
     for t in 0..50 {
-        closer.add_scan(t, pose(t), &points, &[], &mut diagnostics);
+        closer.add_scan(
+            t,
+            pose(t),
+            (&points, &[]),
+            MotionDoubt::None,
+            &mut diagnostics,
+        );
     }
     // Travel 2 m is reached at the 5th scan of a node (4 steps of 0.5 m).
     assert_eq!(

@@ -17,7 +17,7 @@ use crate::config::Config;
 use crate::directions::recent_main_directions;
 use crate::extract::{extract_segments, extract_segments_closed};
 use crate::geometry::{Pose2, Segment, Vec2};
-use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, SavedNode};
+use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, MotionDoubt, SavedNode};
 use crate::map::{GlobalMap, MapSegment, Observations};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
@@ -568,8 +568,8 @@ impl Mapper {
             let correction = self.loops.add_scan(
                 t - self.loop_base,
                 pose,
-                &scan.points_in_robot,
-                &scan.segments_in_robot,
+                (&scan.points_in_robot, &scan.segments_in_robot),
+                motion_doubt(&tracking),
                 &mut loops,
             );
             if let Some(c) = correction {
@@ -664,3 +664,21 @@ mod placement;
 mod tests;
 mod tracking;
 use tracking::ObservedSpeed;
+
+/// The doubt on a scan's motion for the pose graph: along the unobserved direction when the
+/// scan is `weak` for want of one (`degenerate`, `weakly_observed`), else none. (A poor,
+/// ambiguous or lost fit doubted in every direction let wrong loop edges bend Intel at every
+/// 3rd to 10th scan: `docs/ARCHITECTURE.md`, "Loop closure".)
+fn motion_doubt(tracking: &Tracking) -> MotionDoubt {
+    match (
+        tracking.verdict,
+        tracking.reason,
+        tracking.weak_direction_deg,
+    ) {
+        (Verdict::Weak, Reason::Degenerate | Reason::WeaklyObserved, Some(deg)) => {
+            let (s, c) = deg.to_radians().sin_cos();
+            MotionDoubt::Along(Vec2::new(c, s))
+        }
+        _ => MotionDoubt::None,
+    }
+}
