@@ -61,8 +61,8 @@ pub struct LoopParams {
     pub sequential_sigma_m: f64,
     /// ...and rotation, degrees.
     pub sequential_sigma_deg: f64,
-    /// A scan tracked `weak` for want of a direction (`degenerate`, `weakly_observed`: its
-    /// motion along that direction came from the motion prior) adds to its sequential edge a
+    /// A scan tracked `weak` for want of a direction (`degenerate`: its motion along that
+    /// direction came from the motion prior) adds to its sequential edge a
     /// standard deviation of this share of its step (at least `sequential_sigma_m`) along
     /// that direction. A loop correction then goes where the motion was least known (along a
     /// bare corridor) instead of spreading evenly over every scan. Dimensionless; 0: every

@@ -665,17 +665,17 @@ mod tests;
 mod tracking;
 use tracking::ObservedSpeed;
 
-/// The doubt on a scan's motion for the pose graph: along the unobserved direction when the
-/// scan is `weak` for want of one (`degenerate`, `weakly_observed`), else none. (A poor,
-/// ambiguous or lost fit doubted in every direction let wrong loop edges bend Intel at every
-/// 3rd to 10th scan: `docs/ARCHITECTURE.md`, "Loop closure".)
+/// The doubt on a scan's motion for the pose graph: along the direction ICP could not observe
+/// when the scan is `weak` for it (`degenerate`: the motion along it came from the prior),
+/// else none. (Doubting `weakly_observed` scans too, or poor, ambiguous and lost fits in every
+/// direction, let wrong loop edges bend Intel: `docs/ARCHITECTURE.md`, "Loop closure".)
 fn motion_doubt(tracking: &Tracking) -> MotionDoubt {
     match (
         tracking.verdict,
         tracking.reason,
         tracking.weak_direction_deg,
     ) {
-        (Verdict::Weak, Reason::Degenerate | Reason::WeaklyObserved, Some(deg)) => {
+        (Verdict::Weak, Reason::Degenerate, Some(deg)) => {
             let (s, c) = deg.to_radians().sin_cos();
             MotionDoubt::Along(Vec2::new(c, s))
         }
