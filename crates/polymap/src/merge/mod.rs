@@ -62,7 +62,7 @@ pub struct MergeParams {
     /// wall a third to a half of the way to the latest scan, so the map follows each scan's
     /// small error and dense runs drift more than sparse ones. `weak` scans do not add
     /// support: along a wall they may have slid, and what they placed must stay movable.
-    /// Measured in `docs/ARCHITECTURE.md` ("Support").
+    /// Default 10 (`--preset paper`: 1); measured in `docs/ARCHITECTURE.md` ("Support").
     pub support_cap: f64,
 }
 
@@ -78,7 +78,7 @@ impl Default for MergeParams {
             insert_min_piece_m: 0.1,
             rejoin_unpaired_pieces: true,
             local_margin_m: 1.0,
-            support_cap: 1.0,
+            support_cap: 10.0,
         }
     }
 }
