@@ -99,6 +99,14 @@ impl MotionDoubt {
     }
 }
 
+/// A map-frame covariance `map_m2` in the frame of a pose heading `heading_rad`: `Rᵀ C R`.
+fn in_frame(map_m2: &DMat2, heading_rad: f64) -> DMat2 {
+    let (s, c) = heading_rad.sin_cos();
+    // Rᵀ, column by column.
+    let frame_from_map = DMat2::from_cols(glam::DVec2::new(c, -s), glam::DVec2::new(s, c));
+    frame_from_map * *map_m2 * frame_from_map.transpose()
+}
+
 impl LoopCloser {
     /// An empty graph; `align` is the ICP used to match submaps (with its first gate at most
     /// `match_gate_m`: the grid search covers larger offsets), `grid_cell_m` the cell size of
@@ -239,10 +247,8 @@ impl LoopCloser {
             let previous = self.poses.last().filter(|_| !first);
             // The doubt since the node before, turned into this node's frame (the frame of
             // the sequential edge's residual).
-            let (s, c) = map_from_robot.theta_rad.sin_cos();
-            let to_node = DMat2::from_cols(glam::DVec2::new(c, -s), glam::DVec2::new(s, c));
             let since = std::mem::replace(&mut self.doubt_m2, DMat2::ZERO);
-            let doubt_m2 = to_node * since * to_node.transpose();
+            let doubt_m2 = in_frame(&since, map_from_robot.theta_rad);
             self.open = Some(OpenNode {
                 from_previous: previous.map(|last| last.between(&map_from_robot)),
                 doubt_m2,
@@ -384,5 +390,33 @@ pub(super) fn merge_corrections(
                 new_from_old,
             })
         }
+    }
+}
+
+#[cfg(test)]
+mod doubt_tests {
+    use super::*;
+
+    /// A step doubted along the map's y axis, seen from a node heading 90° (its x axis is the
+    /// map's y), is doubted along the node's x; heading 30°, a doubt along the heading lies
+    /// along the node's x too.
+    #[test]
+    fn a_doubt_turns_into_the_nodes_frame() {
+        let params = LoopParams::default();
+        let along_y = MotionDoubt::Along(Vec2::new(0.0, 1.0)).covariance_m2(1.0, &params);
+        assert_eq!(along_y, DMat2::from_cols(Vec2::ZERO, Vec2::new(0.0, 1.0)));
+        let turned = in_frame(&along_y, 90f64.to_radians());
+        assert!((turned.x_axis.x - 1.0).abs() < 1e-12, "{turned:?}");
+        assert!(turned.y_axis.y.abs() < 1e-12 && turned.x_axis.y.abs() < 1e-12);
+        let heading = 30f64.to_radians();
+        let u = Vec2::new(heading.cos(), heading.sin());
+        let along_heading = MotionDoubt::Along(u).covariance_m2(0.5, &params);
+        let turned = in_frame(&along_heading, heading);
+        assert!((turned.x_axis.x - 0.25).abs() < 1e-12, "{turned:?}");
+        assert!(turned.y_axis.y.abs() < 1e-12 && turned.x_axis.y.abs() < 1e-12);
+        // A scan tracked `ok` adds nothing; a short doubted step at least `sequential_sigma_m`.
+        assert_eq!(MotionDoubt::None.covariance_m2(1.0, &params), DMat2::ZERO);
+        let short = MotionDoubt::Along(Vec2::X).covariance_m2(0.001, &params);
+        assert!((short.x_axis.x - params.sequential_sigma_m.powi(2)).abs() < 1e-15);
     }
 }
