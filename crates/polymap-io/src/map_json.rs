@@ -189,7 +189,8 @@ impl MapJson {
         self.segments.iter().map(|s| s.to_map_segment()).collect()
     }
 
-    /// Checks the contract: units `"m"`, finite coordinates, polyline indices in range.
+    /// Checks the contract: units `"m"`, finite coordinates, `confirmed` at most `seen`,
+    /// polyline indices in range.
     pub fn validate(&self) -> Result<(), String> {
         if let Some(problem) = version_problem("map.json", self.version, VERSION) {
             return Err(problem);
@@ -210,6 +211,15 @@ impl MapJson {
         });
         if let Some(i) = bad {
             return Err(format!("segment {i} has a non-finite coordinate or length"));
+        }
+        let over = self.segments.iter().enumerate().find_map(|(i, s)| {
+            let o = s.observations?;
+            o.confirmed.filter(|&c| c > o.seen).map(|c| (i, c, o.seen))
+        });
+        if let Some((i, confirmed, seen)) = over {
+            return Err(format!(
+                "segment {i} was confirmed by {confirmed} scans but seen by only {seen}"
+            ));
         }
         for (p, polyline) in self.polylines.iter().enumerate() {
             if let Some(&i) = polyline.iter().find(|&&i| i >= self.segments.len()) {
@@ -553,6 +563,16 @@ mod tests {
         let before = before.observations().unwrap();
         assert_eq!(before[1].confirmed, None);
         assert_eq!(before[1].support(), 1);
+        // More confirmations than sightings breaks the contract, with the segment named.
+        let over = text.replace(
+            "\"seen\":1,\"seen_through\":1",
+            "\"seen\":0,\"seen_through\":1",
+        );
+        let error = read_map_json_from(over.as_bytes(), "map.json").unwrap_err();
+        assert!(
+            error.to_string().contains("segment 1 was confirmed by 1"),
+            "{error}"
+        );
         let old = r#"{"units": "m", "frame": "first_scan",
             "segments": [{"start": [0, 0], "end": [1, 0], "born_scan": 2, "length_m": 1}],
             "polylines": []}"#;

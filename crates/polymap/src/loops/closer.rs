@@ -347,6 +347,10 @@ impl LoopCloser {
             .map(|(new, old)| new.compose(&old.inverse()))
             .collect();
         let newest = *new_from_old.last()?;
+        // The last scan belongs to the newest node: it moves with it, and so does the doubt
+        // gathered since that node began (a map-frame covariance, turned by the correction).
+        self.last_scan = self.last_scan.map(|p| newest.compose(&p));
+        self.doubt_m2 = in_frame(&self.doubt_m2, -newest.theta_rad);
         // Nodes begun since the graph took the node in ride along with it.
         new_from_old.resize(self.poses.len() - first, newest);
         diagnostics.optimized_nodes = diagnostics.optimized_nodes.max(new_from_old.len());
