@@ -62,18 +62,10 @@ fn residual(e: &Edge, a: &Pose2, b: &Pose2) -> (DVec3, DMat3, DMat3) {
     (r, ja, jb)
 }
 
-/// `J1ᵀ W J2` (for a diagonal `W` as the rows of `J1` scaled, the same sums as ever).
+/// `J1ᵀ W J2` (for a diagonal `W` the same sums as scaling the rows of `J1`: the other terms
+/// are exact zeros).
 fn jt_w_j(j1: &DMat3, w: &DMat3, j2: &DMat3) -> DMat3 {
-    let diagonal = w.x_axis.y == 0.0 && w.y_axis.x == 0.0;
-    let weighted_t = match diagonal {
-        true => DMat3::from_cols(
-            j1.row(0) * w.x_axis.x,
-            j1.row(1) * w.y_axis.y,
-            j1.row(2) * w.z_axis.z,
-        ),
-        false => j1.transpose() * *w,
-    };
-    weighted_t * *j2
+    j1.transpose() * *w * *j2
 }
 
 /// The sum over blocks of their dot products.
@@ -204,10 +196,11 @@ fn weights(e: &Edge, r: DVec3) -> DMat3 {
     if !e.robust {
         return w;
     }
-    let chi2 = match e.doubt_m2 == DMat2::ZERO {
-        true => r.x * r.x * wt + r.y * r.y * wt + r.z * r.z * wr,
-        false => r.dot(w * r),
-    };
+    // rᵀ W r, summed as before the doubt when it is zero.
+    let chi2 = r.x * r.x * translation.x_axis.x
+        + 2.0 * r.x * r.y * translation.x_axis.y
+        + r.y * r.y * translation.y_axis.y
+        + r.z * r.z * wr;
     w * (1.0 / (1.0 + chi2 / (CAUCHY_SCALE * CAUCHY_SCALE)))
 }
 
