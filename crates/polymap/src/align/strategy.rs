@@ -39,7 +39,7 @@
 //!    ICP's pose with `tracking.corner_win_ratio` times its inliers (plus two) when at least
 //!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
 //!    from another hypothesis has `tracking.corner_rival_below` of its inliers; with the
-//!    odometry prior only a pose turned at most `tracking.max_window_deg` from the odometry
+//!    odometry prior only a pose turned at most `tracking.odometry_max_window_deg` from the odometry
 //!    guess may win (any may veto); with point-to-segment ICP only a pose within reach of the
 //!    last `ok` pose in the time the stamps give ([`Tracker::within_reach`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
@@ -215,7 +215,7 @@ fn agrees_across(other: &AlignResult, result: &AlignResult, axis: Vec2) -> bool 
 }
 
 /// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
-/// far as the window search may while tracking (`tracking.max_window_deg`): its guess carries
+/// far as the window search may while tracking (`tracking.odometry_max_window_deg`): its guess carries
 /// the turn, and a bad odometry turn is off by tens of degrees, not half a turn; a corridor's
 /// corners fit a scan turned half round nearly as well as the truth (Intel with odometry,
 /// every 5th scan, with 4 loop candidates per node: a pose 178° off the odometry guess took
@@ -227,7 +227,7 @@ fn corner_turn_rad(odometry: bool, tracking: &TrackParams) -> f64 {
     match odometry {
         false => std::f64::consts::PI,
         true => tracking
-            .max_window_deg
+            .odometry_max_window_deg
             .max(tracking.min_window_deg)
             .to_radians(),
     }
@@ -483,6 +483,7 @@ impl Tracker<'_> {
             &input.anchor,
             recent,
             input.lost_streak,
+            self.config.starts.motion_prior == MotionPrior::Odometry,
             tracking,
         )
     }
@@ -1023,6 +1024,62 @@ mod tests {
         }
     }
 
+    /// A robot that turned 130° lately and now turns back: the constant-velocity guess is
+    /// turned 40° one way, the truth 90° the other, 130° from the guess. ICP from the guess
+    /// fits poorly, so the window is that of the recent motion, ±(15° + 130°): without
+    /// odometry it reaches the truth (`tracking.max_window_deg` = 180°), with the former 90°
+    /// it does not (FR079 every 10th scan, phase 3: a turn 97° from the guess, tracked as a
+    /// poor fit, and 12 scans after it 1-3.5 m off).
+    #[test]
+    fn a_turn_back_beyond_a_right_angle_from_the_guess_is_found_in_the_window() {
+        let world = unlike_room().to_vec();
+        let map = map_of(&world, 0.5);
+        let before = Pose2::new(3.0, 3.0, 0.0);
+        let truth = Pose2::new(3.05, 3.0, 90f64.to_radians());
+        let guess = Pose2::new(3.0, 3.0, (-40f64).to_radians());
+        let mut turning = RecentMotion::default();
+        turning.push(&Pose2::IDENTITY, &Pose2::new(0.0, 0.0, 130f64.to_radians()));
+        let whole = TrackParams {
+            corner_hypotheses: false,
+            ..TrackParams::default()
+        };
+        let right_angle = TrackParams {
+            max_window_deg: 90.0,
+            ..whole.clone()
+        };
+        let scene = (&world[..], &map, truth, guess, 0);
+        for (tracking, found) in [(&whole, true), (&right_angle, false)] {
+            with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
+                let input = TrackInput {
+                    recent: &turning,
+                    anchor: before,
+                    unobserved_to: before,
+                    reference: before,
+                    ..*t.input
+                };
+                // Without the recovery (a search of the whole circle when under 15 % of the
+                // points fit), so that only the window can find the pose.
+                let starts = MapperParams {
+                    recover_below_inlier_share: 0.0,
+                    ..MapperParams::default()
+                };
+                let config = TrackConfig {
+                    starts: &starts,
+                    ..*t.config
+                };
+                let out = track_scan(&input, &config);
+                let e = truth.between(&out.0.expect("a pose").map_from_robot);
+                let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
+                assert_eq!(
+                    near, found,
+                    "window {}°: {e:?} {:?}",
+                    tracking.max_window_deg, out.1
+                );
+                assert!(out.1.searched, "{:?}", out.1);
+            });
+        }
+    }
+
     /// The window of the recent motion only while ICP fits poorly: a pose that fits well
     /// keeps the prediction's window, whatever the robot did lately.
     #[test]
@@ -1041,7 +1098,14 @@ mod tests {
                 input: &input,
                 ..*t
             };
-            let narrow = search_window(&guess, &guess, &RecentMotion::default(), 0, &tracking);
+            let narrow = search_window(
+                &guess,
+                &guess,
+                &RecentMotion::default(),
+                0,
+                false,
+                &tracking,
+            );
             let good = tracker.run(&[], truth);
             let poor = tracker.run(&[], guess);
             let n = tracker.points.len() as f64;
@@ -1183,7 +1247,7 @@ mod tests {
         let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
         let guess = Pose2::new(4.0, 3.0, 0.0);
         let bound = TrackParams {
-            max_window_deg: 60.0,
+            odometry_max_window_deg: 60.0,
             ..TrackParams::default()
         };
         let scene = (&world[..], &map, truth, guess, 0);
@@ -1364,7 +1428,7 @@ mod tests {
         let tracking = TrackParams::default();
         assert_eq!(corner_turn_rad(false, &tracking), std::f64::consts::PI);
         let window = corner_turn_rad(true, &tracking);
-        assert_eq!(window, tracking.max_window_deg.to_radians());
+        assert_eq!(window, tracking.odometry_max_window_deg.to_radians());
         assert!(window < std::f64::consts::FRAC_PI_2 + 1e-9);
     }
 

@@ -43,9 +43,16 @@ pub struct TrackParams {
     pub max_window_m: f64,
     /// Half-width of the smallest rotation window, degrees.
     pub min_window_deg: f64,
-    /// Half-width of the largest rotation window while tracking, degrees; with the odometry
-    /// prior also how far a corner hypothesis may turn the scan from the guess.
+    /// Half-width of the largest rotation window while tracking without the odometry prior,
+    /// degrees (180: the whole circle). A constant-velocity guess may be off by any turn: a
+    /// robot that turns 60-85° between scans and then turns back (FR079 every 10th scan) is
+    /// 100-150° from its guess.
     pub max_window_deg: f64,
+    /// With the odometry prior, half-width of the largest rotation window and how far a corner
+    /// hypothesis may turn the scan from the guess, degrees: the odometry guess carries the
+    /// turn, a bad odometry turn is off by tens of degrees, not half a turn, and a corridor
+    /// fits a scan turned half round nearly as well as the truth.
+    pub odometry_max_window_deg: f64,
     /// The translation window's half-width grows by this many times the predicted step.
     pub window_per_step: f64,
     /// While ICP's pose fits under `search_below_inlier_share` of the points, the window also
@@ -190,7 +197,8 @@ impl Default for TrackParams {
             min_window_m: 0.3,
             max_window_m: 1.0,
             min_window_deg: 15.0,
-            max_window_deg: 90.0,
+            max_window_deg: 180.0,
+            odometry_max_window_deg: 90.0,
             window_per_step: 1.0,
             window_per_recent: 1.0,
             window_per_turn: 1.0,
@@ -258,6 +266,12 @@ impl TrackParams {
             .within(
                 "max_window_deg",
                 self.max_window_deg,
+                self.min_window_deg,
+                180.0,
+            )
+            .within(
+                "odometry_max_window_deg",
+                self.odometry_max_window_deg,
                 self.min_window_deg,
                 180.0,
             )
@@ -485,13 +499,15 @@ impl RecentMotion {
 }
 
 /// The window around `prediction`: wider for a larger predicted motion, and for every scan lost
-/// in a row (then over the whole circle). Its rotation always reaches the anchor's heading
-/// with `min_window_deg` to spare, however far the prediction turned.
+/// in a row (then over the whole circle). Its rotation reaches at most `max_window_deg`
+/// (`odometry_max_window_deg` when the prediction is odometry's), and always the anchor's
+/// heading with `min_window_deg` to spare, however far the prediction turned.
 pub fn search_window(
     prediction: &Pose2,
     anchor: &Pose2,
     recent: &RecentMotion,
     lost_streak: u32,
+    odometry: bool,
     params: &TrackParams,
 ) -> SearchWindow {
     let motion = anchor.between(prediction);
@@ -515,13 +531,14 @@ pub fn search_window(
         params.min_window_m,
         params.max_window_m.max(params.min_window_m),
     );
+    let max_deg = match odometry {
+        true => params.odometry_max_window_deg,
+        false => params.max_window_deg,
+    };
     let half_deg = (params.min_window_deg
         + params.window_per_turn * turn_deg
         + params.window_deg_per_m * step)
-        .clamp(
-            params.min_window_deg,
-            params.max_window_deg.max(params.min_window_deg),
-        )
+        .clamp(params.min_window_deg, max_deg.max(params.min_window_deg))
         // The anchor's heading stays inside the window: a predicted turn beyond the widest
         // window (a turn the last step took, perhaps wrongly) must not exclude no turn.
         .max(normalize_angle_rad(motion.theta_rad).abs().to_degrees() + params.min_window_deg)
@@ -792,25 +809,34 @@ mod tests {
     fn the_window_grows_with_the_motion_and_when_lost() {
         let p = TrackParams::default();
         let anchor = Pose2::IDENTITY;
-        let still = search_window(&anchor, &anchor, &RecentMotion::default(), 0, &p);
+        let still = search_window(&anchor, &anchor, &RecentMotion::default(), 0, false, &p);
         assert_eq!(still.half_xy_m, p.min_window_m);
         assert!((still.half_theta_rad.to_degrees() - p.min_window_deg).abs() < 1e-9);
         let fast = Pose2::new(0.5, 0.0, 30f64.to_radians());
-        let w = search_window(&fast, &anchor, &RecentMotion::default(), 0, &p);
+        let w = search_window(&fast, &anchor, &RecentMotion::default(), 0, false, &p);
         assert!((w.half_xy_m - 0.8).abs() < 1e-9);
         assert!((w.half_theta_rad.to_degrees() - 75.0).abs() < 1e-9);
-        // A predicted turn beyond the widest window (the last step's, perhaps a wrong flip)
-        // still leaves the anchor's heading inside, with the smallest margin, and at most the
-        // whole circle.
-        for (turn_deg, half_deg) in [(80.0, 95.0), (100.0, 115.0), (172.0, 180.0)] {
+        // Without odometry a large predicted turn widens the window up to the whole circle
+        // (15° + the turn + 60°/m of the 0.2 m step). With odometry the window stops at 90°,
+        // but a predicted turn beyond it (the last step's, perhaps a wrong flip) still leaves
+        // the anchor's heading inside, with the smallest margin, and at most the whole circle.
+        for (turn_deg, cv_deg, odometry_deg) in [
+            (60.0, 87.0, 87.0),
+            (80.0, 107.0, 95.0),
+            (100.0, 127.0, 115.0),
+            (172.0, 180.0, 180.0),
+        ] {
             let spun = Pose2::new(0.2, 0.0, f64::to_radians(turn_deg));
-            let w = search_window(&spun, &anchor, &RecentMotion::default(), 0, &p);
-            assert!(
-                (w.half_theta_rad.to_degrees() - half_deg).abs() < 1e-9,
-                "{turn_deg}°"
-            );
+            for (odometry, half_deg) in [(false, cv_deg), (true, odometry_deg)] {
+                let w = search_window(&spun, &anchor, &RecentMotion::default(), 0, odometry, &p);
+                assert!(
+                    (w.half_theta_rad.to_degrees() - half_deg).abs() < 1e-9,
+                    "{turn_deg}° {odometry}: {}",
+                    w.half_theta_rad.to_degrees()
+                );
+            }
         }
-        let lost = search_window(&fast, &anchor, &RecentMotion::default(), 3, &p);
+        let lost = search_window(&fast, &anchor, &RecentMotion::default(), 3, false, &p);
         assert!((lost.half_xy_m - 2.5).abs() < 1e-9);
         assert_eq!(lost.half_theta_rad, std::f64::consts::PI);
         // A robot that stood still for a scan after moving fast: the window of its recent
@@ -818,7 +844,7 @@ mod tests {
         let mut moved = RecentMotion::default();
         moved.push(&anchor, &fast);
         moved.push(&fast, &fast);
-        let after_stop = search_window(&anchor, &anchor, &moved, 0, &p);
+        let after_stop = search_window(&anchor, &anchor, &moved, 0, false, &p);
         assert_eq!(after_stop.center, anchor);
         assert_eq!(
             (after_stop.half_xy_m, after_stop.half_theta_rad),
@@ -828,7 +854,10 @@ mod tests {
             window_per_recent: 0.0,
             ..p.clone()
         };
-        assert_eq!(search_window(&anchor, &anchor, &moved, 0, &alone), still);
+        assert_eq!(
+            search_window(&anchor, &anchor, &moved, 0, false, &alone),
+            still
+        );
         let mut recent = RecentMotion::default();
         assert!(should_search(&fast, &anchor, &recent, None, 10, 0, &p));
         assert!(!should_search(&anchor, &anchor, &recent, None, 0, 0, &p));
