@@ -986,6 +986,36 @@ mod tests {
         assert!(!tracking.corner_won, "{tracking:?}");
     }
 
+    /// Tracks the scan of `scene` (point-to-segment ICP) after the `recent` motion, from
+    /// `anchor` (also the fallback and the reference of reach), with the mapper's `starts`:
+    /// whether the pose is within 2 cm and 0.01 rad of the truth, its error, and the verdict.
+    fn track_after(
+        scene: (&[Segment], &GlobalMap, Pose2, Pose2, u32),
+        tracking: &TrackParams,
+        starts: &MapperParams,
+        recent: &RecentMotion,
+        anchor: Pose2,
+    ) -> (bool, Pose2, Tracking) {
+        let truth = scene.2;
+        with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
+            let input = TrackInput {
+                recent,
+                anchor,
+                unobserved_to: anchor,
+                reference: anchor,
+                ..*t.input
+            };
+            let config = TrackConfig {
+                starts,
+                ..*t.config
+            };
+            let (result, verdict) = track_scan(&input, &config);
+            let e = truth.between(&result.expect("a pose").map_from_robot);
+            let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
+            (near, e, verdict)
+        })
+    }
+
     /// A robot that stood for a scan (the prediction: no motion) and then moved on as it did
     /// before: [`beyond_the_window`]'s 2.2 m and 70°, with a window of at most 2.5 m, and no
     /// corner hypotheses. ICP fits poorly; the prediction's window (±0.3 m, ±15°) misses the
@@ -1005,22 +1035,12 @@ mod tests {
             ..without_corners.clone()
         };
         let scene = (&world[..], &map, truth, guess, 0);
+        let starts = MapperParams::default();
         for (tracking, found) in [(&without_corners, true), (&off, false)] {
-            with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
-                let input = TrackInput {
-                    recent: &moving,
-                    ..*t.input
-                };
-                let out = track_scan(&input, t.config);
-                let e = truth.between(&out.0.expect("a pose").map_from_robot);
-                let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
-                assert_eq!(
-                    near, found,
-                    "per recent {}: {e:?} {:?}",
-                    tracking.window_per_recent, out.1
-                );
-                assert_eq!(out.1.search_won, found, "{:?}", out.1);
-            });
+            let (near, e, verdict) = track_after(scene, tracking, &starts, &moving, guess);
+            let per_recent = tracking.window_per_recent;
+            assert_eq!(near, found, "per recent {per_recent}: {e:?} {verdict:?}");
+            assert_eq!(verdict.search_won, found, "{verdict:?}");
         }
     }
 
@@ -1047,36 +1067,18 @@ mod tests {
             max_window_deg: 90.0,
             ..whole.clone()
         };
+        // Without the recovery (a search of the whole circle when under 15 % of the points
+        // fit), so that only the window can find the pose.
+        let starts = MapperParams {
+            recover_below_inlier_share: 0.0,
+            ..MapperParams::default()
+        };
         let scene = (&world[..], &map, truth, guess, 0);
         for (tracking, found) in [(&whole, true), (&right_angle, false)] {
-            with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
-                let input = TrackInput {
-                    recent: &turning,
-                    anchor: before,
-                    unobserved_to: before,
-                    reference: before,
-                    ..*t.input
-                };
-                // Without the recovery (a search of the whole circle when under 15 % of the
-                // points fit), so that only the window can find the pose.
-                let starts = MapperParams {
-                    recover_below_inlier_share: 0.0,
-                    ..MapperParams::default()
-                };
-                let config = TrackConfig {
-                    starts: &starts,
-                    ..*t.config
-                };
-                let out = track_scan(&input, &config);
-                let e = truth.between(&out.0.expect("a pose").map_from_robot);
-                let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
-                assert_eq!(
-                    near, found,
-                    "window {}°: {e:?} {:?}",
-                    tracking.max_window_deg, out.1
-                );
-                assert!(out.1.searched, "{:?}", out.1);
-            });
+            let (near, e, verdict) = track_after(scene, tracking, &starts, &turning, before);
+            let window = tracking.max_window_deg;
+            assert_eq!(near, found, "window {window}°: {e:?} {verdict:?}");
+            assert!(verdict.searched, "{verdict:?}");
         }
     }
 
