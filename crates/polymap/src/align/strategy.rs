@@ -226,10 +226,7 @@ fn agrees_across(other: &AlignResult, result: &AlignResult, axis: Vec2) -> bool 
 fn corner_turn_rad(odometry: bool, tracking: &TrackParams) -> f64 {
     match odometry {
         false => std::f64::consts::PI,
-        true => tracking
-            .odometry_max_window_deg
-            .max(tracking.min_window_deg)
-            .to_radians(),
+        true => tracking.widest_window_deg(true).to_radians(),
     }
 }
 

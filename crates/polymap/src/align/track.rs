@@ -411,6 +411,16 @@ pub struct Tracking {
 }
 
 impl TrackParams {
+    /// Half-width of the widest rotation window while tracking, degrees: `max_window_deg`, or
+    /// `odometry_max_window_deg` with the odometry prior; never under `min_window_deg`.
+    pub fn widest_window_deg(&self, odometry: bool) -> f64 {
+        let cut = match odometry {
+            true => self.odometry_max_window_deg,
+            false => self.max_window_deg,
+        };
+        cut.max(self.min_window_deg)
+    }
+
     /// Whether two poses are distinct places: more than `rival_apart_m` or `rival_apart_deg`
     /// apart (the rival of a search, of a placement, of a corner hypothesis).
     pub fn apart(&self, a: &Pose2, b: &Pose2) -> bool {
@@ -531,14 +541,10 @@ pub fn search_window(
         params.min_window_m,
         params.max_window_m.max(params.min_window_m),
     );
-    let max_deg = match odometry {
-        true => params.odometry_max_window_deg,
-        false => params.max_window_deg,
-    };
     let half_deg = (params.min_window_deg
         + params.window_per_turn * turn_deg
         + params.window_deg_per_m * step)
-        .clamp(params.min_window_deg, max_deg.max(params.min_window_deg))
+        .clamp(params.min_window_deg, params.widest_window_deg(odometry))
         // The anchor's heading stays inside the window: a predicted turn beyond the widest
         // window (a turn the last step took, perhaps wrongly) must not exclude no turn.
         .max(normalize_angle_rad(motion.theta_rad).abs().to_degrees() + params.min_window_deg)
