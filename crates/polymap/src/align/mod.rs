@@ -58,8 +58,9 @@ pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
 pub use solver::Constraint;
 pub use strategy::{
-    PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M, TrackConfig, TrackInput, UNOBSERVED_ACROSS_M,
-    UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan, whole_map_window,
+    PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M, STOPPED_BELOW_SHARE_OF_STEP, TrackConfig, TrackInput,
+    UNOBSERVED_ACROSS_M, UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan,
+    whole_map_window,
 };
 pub use track::{
     LOOSE_OFF_MAP_M, LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict,

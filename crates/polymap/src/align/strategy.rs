@@ -30,7 +30,11 @@
 //!    the same test, unless two distinct ones pass ([`Tracker::along_unobserved`]). A pose
 //!    ICP observed along a direction only weakly, more than [`PRIOR_OVER_WEAK_M`] from the
 //!    fallback, is replaced by ICP from the fallback when that fits as well
-//!    ([`Tracker::prior_over_weak`]).
+//!    ([`Tracker::prior_over_weak`]); when it does not, and the pose lies within
+//!    [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor while that
+//!    step is at least `tracking.search_above_step_m` (a fast robot that ICP, on weak
+//!    evidence, says stopped), ICP from poses along the axis may win by the test above
+//!    ([`Tracker::stopped_on_weak_evidence`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
 //!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
@@ -124,6 +128,10 @@ pub const UNOBSERVED_SEED_STEP_M: f64 = 0.25;
 /// A weakly observed pose farther than this along its weak axis from the last observed
 /// motion's is checked against it, metres.
 pub const PRIOR_OVER_WEAK_M: f64 = 0.1;
+
+/// A pose ICP observed only weakly along an axis, moved from the anchor along it by less than
+/// this share of the longest recent step, counts as stopped ([`Tracker::icp`]).
+pub const STOPPED_BELOW_SHARE_OF_STEP: f64 = 0.5;
 
 /// The recovery searches positions within this distance of the anchor (each axis), metres.
 pub const RECOVER_TRANSLATION_M: f64 = 1.0;
@@ -337,17 +345,30 @@ struct Tracker<'a> {
 
 impl Tracker<'_> {
     /// ICP from the starts, the recovery, the window search, and along an axis neither could
-    /// observe ([`Tracker::along_unobserved`]); with the search's outcome when it ran, whether
-    /// its pose won, and whether the loser fitted nearly as well.
+    /// observe ([`Tracker::along_unobserved`]), or along one ICP observed only weakly where
+    /// the fallback ([`Tracker::prior_over_weak`]) did not win and the robot, fast lately,
+    /// seems to have stopped ([`Tracker::stopped_on_weak_evidence`]); with the search's
+    /// outcome when it ran, whether its pose won, and whether the loser fitted nearly as well.
     fn icp(&self) -> Aligned {
         let aligned = self.icp_and_search();
         let Some(result) = aligned.result else {
             return aligned;
         };
         let Some(axis) = self.unobserved(&result) else {
-            return match self.prior_over_weak(&result) {
-                Some(prior) => Aligned {
+            if let Some(prior) = self.prior_over_weak(&result) {
+                return Aligned {
                     result: Some(prior),
+                    ..aligned
+                };
+            }
+            let Some(axis) = self.stopped_on_weak_evidence(&result) else {
+                return aligned;
+            };
+            return match self.along_unobserved(&result, axis) {
+                Some(moved) => Aligned {
+                    result: Some(moved),
+                    search_won: true,
+                    second_fit: false,
                     ..aligned
                 },
                 None => aligned,
@@ -548,6 +569,27 @@ impl Tracker<'_> {
             && result.weak_directions > 0;
         let axis = result.weak_direction_deg.filter(|_| on)?.to_radians();
         Some(Vec2::new(axis.cos(), axis.sin()))
+    }
+
+    /// The map-frame axis (unit vector) along which ICP observed `result` only weakly and put
+    /// it less than [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor, while the robot moved at
+    /// least `tracking.search_above_step_m` per scan lately: a fast robot that ICP, on weak
+    /// evidence, says stopped. Under the same conditions as [`Tracker::unobserved`].
+    fn stopped_on_weak_evidence(&self, result: &AlignResult) -> Option<Vec2> {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let info = result.translation_information;
+        let recent = input.recent.step_m();
+        let on = tracking.search_unobserved
+            && tracking.window_search
+            && input.lost_streak == 0
+            && self.config.starts.motion_prior != MotionPrior::Odometry
+            && result.weak_directions == 0
+            && info.weakest < tracking.weak_below_information
+            && recent >= tracking.search_above_step_m;
+        let a = info.weakest_deg.to_radians();
+        let axis = Vec2::new(a.cos(), a.sin());
+        let moved = result.map_from_robot.translation() - input.anchor.translation();
+        (on && moved.dot(axis).abs() < STOPPED_BELOW_SHARE_OF_STEP * recent).then_some(axis)
     }
 
     /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
@@ -759,6 +801,7 @@ impl Tracker<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::align::TranslationInformation;
     use crate::extract::{ExtractParams, extract_segments};
     use crate::testutil::{cast_360 as cast, map_of, room, seg};
 
@@ -1372,6 +1415,74 @@ mod tests {
         let tracked = track_in(&world, &map, truth, guess, &TrackParams::default());
         assert_near(&truth, &tracked);
         assert!(tracked.1.search_won, "{:?}", tracked.1);
+    }
+
+    #[test]
+    fn a_fast_robot_icp_stops_on_weak_evidence_is_checked_along_the_axis() {
+        // The robot went on at its recent 0.8 m per scan along the framed corridor; ICP from "no
+        // motion" stayed there, its step observed only weakly (as a few points of clutter
+        // along the corridor would). ICP from poses along the axis reaches the frames and
+        // observes the step.
+        let world = framed_corridor();
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(0.8, 0.0, 0.0);
+        let scene = (&world[..], &map, truth, Pose2::IDENTITY, 0);
+        let tracking = TrackParams::default();
+        let recent = |step_m: f64| {
+            let mut r = RecentMotion::default();
+            r.push(&Pose2::new(-step_m, 0.0, 0.0), &Pose2::IDENTITY);
+            r
+        };
+        let (fast, slow) = (recent(0.8), recent(0.1));
+        let weakly = |r: AlignResult, weakest: f64| AlignResult {
+            weak_directions: 0,
+            weak_direction_deg: None,
+            translation_information: TranslationInformation {
+                weakest,
+                strongest: 100.0,
+                weakest_deg: 0.0,
+            },
+            ..r
+        };
+        let odometry = MapperParams {
+            motion_prior: MotionPrior::Odometry,
+            ..MapperParams::default()
+        };
+        with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
+            let stopped = weakly(t.run(&[], Pose2::IDENTITY), 2.0);
+            assert!(stopped.map_from_robot.x_m.abs() < 0.05, "{stopped:?}");
+            let check = |recent: &RecentMotion, result: &AlignResult, starts: &MapperParams| {
+                let input = TrackInput { recent, ..*t.input };
+                let config = TrackConfig {
+                    starts,
+                    ..*t.config
+                };
+                let tracker = Tracker {
+                    input: &input,
+                    config: &config,
+                    ..*t
+                };
+                tracker
+                    .stopped_on_weak_evidence(result)
+                    .map(|axis| (axis, tracker.along_unobserved(result, axis)))
+            };
+            let defaults = MapperParams::default();
+            let (axis, moved) = check(&fast, &stopped, &defaults).expect("checked");
+            assert!((axis.x.abs() - 1.0).abs() < 1e-9, "{axis:?}");
+            let moved = moved.expect("a pose along the axis");
+            let e = truth.between(&moved.map_from_robot);
+            assert!(e.translation().length() < 0.02, "{e:?}");
+            // Not for a slow robot, a well observed step, a pose that moved at least half the
+            // recent step along the axis, or with the odometry prior (its guess is evidence).
+            assert!(check(&slow, &stopped, &defaults).is_none());
+            assert!(check(&fast, &weakly(stopped, 50.0), &defaults).is_none());
+            let half_way = AlignResult {
+                map_from_robot: Pose2::new(0.45, 0.0, 0.0),
+                ..stopped
+            };
+            assert!(check(&fast, &half_way, &defaults).is_none());
+            assert!(check(&fast, &stopped, &odometry).is_none());
+        });
     }
 
     #[test]
