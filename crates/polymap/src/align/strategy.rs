@@ -571,10 +571,11 @@ impl Tracker<'_> {
         Some(Vec2::new(axis.cos(), axis.sin()))
     }
 
-    /// The map-frame axis (unit vector) along which ICP observed `result` only weakly and put
-    /// it less than [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor, while the robot moved at
-    /// least `tracking.search_above_step_m` per scan lately: a fast robot that ICP, on weak
-    /// evidence, says stopped. Under the same conditions as [`Tracker::unobserved`].
+    /// The map-frame axis (unit vector) along which ICP observed `result` only weakly (its
+    /// verdict would be `weakly_observed`: otherwise a good fit) and put it less than
+    /// [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor, while the
+    /// robot moved at least `tracking.search_above_step_m` per scan lately: a fast robot that
+    /// ICP, on weak evidence, says stopped. Under the same conditions as [`Tracker::unobserved`].
     fn stopped_on_weak_evidence(&self, result: &AlignResult) -> Option<Vec2> {
         let (input, tracking) = (self.input, self.config.tracking);
         let info = result.translation_information;
@@ -583,9 +584,11 @@ impl Tracker<'_> {
             && tracking.window_search
             && input.lost_streak == 0
             && self.config.starts.motion_prior != MotionPrior::Odometry
-            && result.weak_directions == 0
-            && info.weakest < tracking.weak_below_information
-            && recent >= tracking.search_above_step_m;
+            && recent >= tracking.search_above_step_m
+            // A fit whose only doubt is that one direction: a poor fit is doubtful in every
+            // direction, and "agrees across" says nothing about it.
+            && verdict(Some(result), self.points.len(), false, tracking).reason
+                == Reason::WeaklyObserved;
         let a = info.weakest_deg.to_radians();
         let axis = Vec2::new(a.cos(), a.sin());
         let moved = result.map_from_robot.translation() - input.anchor.translation();
@@ -1473,7 +1476,8 @@ mod tests {
             let e = truth.between(&moved.map_from_robot);
             assert!(e.translation().length() < 0.02, "{e:?}");
             // Not for a slow robot, a well observed step, a pose that moved at least half the
-            // recent step along the axis, or with the odometry prior (its guess is evidence).
+            // recent step along the axis, a poor fit, or with the odometry prior (its guess is
+            // evidence).
             assert!(check(&slow, &stopped, &defaults).is_none());
             assert!(check(&fast, &weakly(stopped, 50.0), &defaults).is_none());
             let half_way = AlignResult {
@@ -1481,6 +1485,11 @@ mod tests {
                 ..stopped
             };
             assert!(check(&fast, &half_way, &defaults).is_none());
+            let poor = AlignResult {
+                inliers: stopped.inliers / 4,
+                ..stopped
+            };
+            assert!(check(&fast, &poor, &defaults).is_none());
             assert!(check(&fast, &stopped, &odometry).is_none());
         });
     }
