@@ -556,34 +556,36 @@ impl Tracker<'_> {
     }
 
     /// The map-frame axis (unit vector) along which ICP put `result` on its fallback
-    /// (`TrackInput::unobserved_to`) for want of
-    /// information, when the rule of `tracking.search_unobserved` applies: tracking (nothing
-    /// lost before), the window search on, and no odometry prior (whose guess is evidence of
-    /// the motion). `None` when every translation was observed, or only the rotation was not.
+    /// (`TrackInput::unobserved_to`) for want of information, where
+    /// [`Tracker::checks_along_axes`]. `None` when every translation was observed, or only the
+    /// rotation was not.
     fn unobserved(&self, result: &AlignResult) -> Option<Vec2> {
+        let on = self.checks_along_axes() && result.weak_directions > 0;
+        let axis = result.weak_direction_deg.filter(|_| on)?.to_radians();
+        Some(Vec2::new(axis.cos(), axis.sin()))
+    }
+
+    /// Whether a pose may be checked along an axis ICP observed weakly or not at all
+    /// (`tracking.search_unobserved`): while tracking (nothing lost just before), with the
+    /// window search on, and without the odometry prior, whose guess is evidence of the motion.
+    fn checks_along_axes(&self) -> bool {
         let tracking = self.config.tracking;
-        let on = tracking.search_unobserved
+        tracking.search_unobserved
             && tracking.window_search
             && self.input.lost_streak == 0
             && self.config.starts.motion_prior != MotionPrior::Odometry
-            && result.weak_directions > 0;
-        let axis = result.weak_direction_deg.filter(|_| on)?.to_radians();
-        Some(Vec2::new(axis.cos(), axis.sin()))
     }
 
     /// The map-frame axis (unit vector) along which ICP observed `result` only weakly (its
     /// verdict would be `weakly_observed`: otherwise a good fit) and put it less than
     /// [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor, while the
     /// robot moved at least `tracking.search_above_step_m` per scan lately: a fast robot that
-    /// ICP, on weak evidence, says stopped. Under the same conditions as [`Tracker::unobserved`].
+    /// ICP, on weak evidence, says stopped; only where [`Tracker::checks_along_axes`].
     fn stopped_on_weak_evidence(&self, result: &AlignResult) -> Option<Vec2> {
         let (input, tracking) = (self.input, self.config.tracking);
         let info = result.translation_information;
         let recent = input.recent.step_m();
-        let on = tracking.search_unobserved
-            && tracking.window_search
-            && input.lost_streak == 0
-            && self.config.starts.motion_prior != MotionPrior::Odometry
+        let on = self.checks_along_axes()
             && recent >= tracking.search_above_step_m
             // A fit whose only doubt is that one direction: a poor fit is doubtful in every
             // direction, and "agrees across" says nothing about it.
