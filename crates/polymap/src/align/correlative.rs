@@ -82,7 +82,8 @@ struct Rotations {
     theta_rad: Vec<f64>,
     /// Per rotation, the smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)`,
     /// when its flat indices are valid: a block whose every cell lands inside the raster is
-    /// summed from them without checks. `None` for no cells, or for a rotation with a cell
+    /// summed from them without checks. `None` for no cells, or for a rotation whose extent
+    /// has a corner (`(min_x, min_y)` or `(max_x, max_y)`, bounding every cell's flat index)
     /// whose flat index does not fit an `i32` (far from a wide raster, where a block's offset
     /// may still bring it inside): its blocks are summed with checks (the same sums).
     extent: Vec<Option<(i64, i64, i64, i64)>>,

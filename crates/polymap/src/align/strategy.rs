@@ -30,11 +30,13 @@
 //!    the same test, unless two distinct ones pass ([`Tracker::along_unobserved`]). A pose
 //!    ICP observed along a direction only weakly, more than [`PRIOR_OVER_WEAK_M`] from the
 //!    fallback, is replaced by ICP from the fallback when that fits as well
-//!    ([`Tracker::prior_over_weak`]); when it does not, and the pose lies within
-//!    [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor while that
-//!    step is at least `tracking.search_above_step_m` (a fast robot that ICP, on weak
-//!    evidence, says stopped), ICP from poses along the axis may win by the test above
-//!    ([`Tracker::stopped_on_weak_evidence`]).
+//!    ([`Tracker::prior_over_weak`]). When that did not win (or was not tried, the pose lying
+//!    near the fallback), the weak axis is the fit's only doubt (its verdict would be
+//!    `weakly_observed`), the pose lies within [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest
+//!    recent step from the anchor, and that step is at least `tracking.search_above_step_m`
+//!    (a fast robot that ICP, on weak evidence, says stopped or slowed down), ICP from poses
+//!    along the axis may win by the test above, under the same conditions
+//!    ([`Tracker::stopped_on_weak_evidence`], [`Tracker::checks_along_axes`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
 //!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
@@ -580,7 +582,8 @@ impl Tracker<'_> {
     /// verdict would be `weakly_observed`: otherwise a good fit) and put it less than
     /// [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor, while the
     /// robot moved at least `tracking.search_above_step_m` per scan lately: a fast robot that
-    /// ICP, on weak evidence, says stopped; only where [`Tracker::checks_along_axes`].
+    /// ICP, on weak evidence, says stopped or slowed down (also where the fallback was not
+    /// tried because the pose lies near it); only where [`Tracker::checks_along_axes`].
     fn stopped_on_weak_evidence(&self, result: &AlignResult) -> Option<Vec2> {
         let (input, tracking) = (self.input, self.config.tracking);
         let info = result.translation_information;

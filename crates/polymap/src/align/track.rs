@@ -399,7 +399,9 @@ pub struct Tracking {
     pub inlier_share: f64,
     /// Whether the correlative window search ran.
     pub searched: bool,
-    /// Whether the search's pose won over ICP from the prediction.
+    /// Whether a searched pose won over ICP from the prediction: the window search's, the
+    /// recovery's, or ICP's from a pose along an axis ICP observed weakly or not at all (the
+    /// last may win where the window search did not run).
     pub search_won: bool,
     /// Whether ICP from a corner hypothesis ([`crate::align::corner_seeds`]) won: the scan
     /// moved beyond the window search.
