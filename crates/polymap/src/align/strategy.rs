@@ -1500,6 +1500,38 @@ mod tests {
     }
 
     #[test]
+    fn a_fast_robot_in_a_weakly_observed_corridor_is_tracked_along_it() {
+        // End to end: the framed corridor with four shallow recesses 0.8 m apart on one wall.
+        // From "no motion" the recesses fit again (a step of one period), and ICP observes the
+        // step only weakly (`weakly_observed`); the frames, 0.8 m off, are beyond its reach and
+        // beyond the window (±0.3 m around the prediction of no motion). The robot went 0.8 m
+        // per scan lately: ICP along the axis finds the frames.
+        let mut world = framed_corridor();
+        for k in 1..=4 {
+            let x = 0.4 - 0.8 * f64::from(k);
+            world.push(seg(x, -1.0, x, -0.95));
+        }
+        let map = map_of(&world, 0.5);
+        let truth = Pose2::new(0.8, 0.0, 0.0);
+        let scene = (&world[..], &map, truth, Pose2::IDENTITY, 0);
+        let mut fast = RecentMotion::default();
+        fast.push(&Pose2::new(-0.8, 0.0, 0.0), &Pose2::IDENTITY);
+        let starts = MapperParams::default();
+        let on = TrackParams::default();
+        let (near, e, tracking) = track_after(scene, &on, &starts, &fast, Pose2::IDENTITY);
+        assert!(near, "{e:?} {tracking:?}");
+        assert!(tracking.search_won, "{tracking:?}");
+        // Without the checks along axes ICP's pose stays, flagged as weakly observed.
+        let off = TrackParams {
+            search_unobserved: false,
+            ..on
+        };
+        let (near, e, tracking) = track_after(scene, &off, &starts, &fast, Pose2::IDENTITY);
+        assert!(!near && (e.x_m + 0.8).abs() < 0.05, "{e:?}");
+        assert_eq!(tracking.reason, Reason::WeaklyObserved, "{tracking:?}");
+    }
+
+    #[test]
     fn alike_poses_along_the_axis_leave_the_step_unobserved() {
         // Door frames every 1.2 m on both walls: ICP from the seeds reaches several places
         // that fit alike, so none wins and the step stays on the fallback (here the guess),
