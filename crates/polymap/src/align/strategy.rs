@@ -356,25 +356,20 @@ impl Tracker<'_> {
         let Some(result) = aligned.result else {
             return aligned;
         };
-        let Some(axis) = self.unobserved(&result) else {
-            if let Some(prior) = self.prior_over_weak(&result) {
-                return Aligned {
-                    result: Some(prior),
-                    ..aligned
-                };
+        let axis = match self.unobserved(&result) {
+            Some(axis) => axis,
+            None => {
+                if let Some(prior) = self.prior_over_weak(&result) {
+                    return Aligned {
+                        result: Some(prior),
+                        ..aligned
+                    };
+                }
+                match self.stopped_on_weak_evidence(&result) {
+                    Some(axis) => axis,
+                    None => return aligned,
+                }
             }
-            let Some(axis) = self.stopped_on_weak_evidence(&result) else {
-                return aligned;
-            };
-            return match self.along_unobserved(&result, axis) {
-                Some(moved) => Aligned {
-                    result: Some(moved),
-                    search_won: true,
-                    second_fit: false,
-                    ..aligned
-                },
-                None => aligned,
-            };
         };
         match self.along_unobserved(&result, axis) {
             Some(moved) => Aligned {
