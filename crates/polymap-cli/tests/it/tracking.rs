@@ -317,12 +317,13 @@ fn faulty_odometry_does_not_make_the_odometry_prior_much_worse_than_none() {
 /// missed, listed so that every other run stays checked: in the simulated corridor's bare
 /// middle the faulty odometry is the only evidence of the motion along it, and nothing
 /// checks it there, while the run without odometry drives it at the speed last observed
-/// since session 11 (ATE with / without: K = 5 1.06 / 0.25 m, K = 10 1.09 / 0.11 m; both
-/// about 10 m without odometry before).
-const KNOWN_ODOMETRY_MISSES: [(&str, usize); 2] = [("corridor", 5), ("corridor", 10)];
+/// since session 11 (ATE with / without at K = 10: 1.088 / 0.107 m; both about 10 m without
+/// odometry before). Every 5th scan met the target by session 18 (0.475 against 0.391 m, the
+/// bound 0.480 m) and is checked.
+const KNOWN_ODOMETRY_MISSES: [(&str, usize); 1] = [("corridor", 10)];
 
-/// The faulty-odometry runs of [`KNOWN_ODOMETRY_MISSES`] stay within this ATE, metres (1.06
-/// and 1.09 m when listed).
+/// The faulty-odometry runs of [`KNOWN_ODOMETRY_MISSES`] stay within this ATE, metres (1.09 m
+/// when listed).
 const KNOWN_MISS_ODOMETRY_ATE_M: f64 = 1.2;
 
 #[test]

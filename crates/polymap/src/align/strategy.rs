@@ -13,14 +13,18 @@
 //!    rotation ([`rotation_search`]) when the robot turned faster than ICP's basin. With
 //!    `mapper.icp_from_best_start_only`, ICP runs only from the start with the best soft
 //!    inlier score (the first start kept unless beaten by `mapper.start_score_margin`);
-//!    otherwise from each, and the [`better`] fit wins.
+//!    otherwise from each, and the [`better`] fit wins. Where that fits under
+//!    `tracking.search_below_inlier_share` of the points and odometry disagrees with the
+//!    constant-velocity guess, also from the best coarse rotation around the latter (a stalled
+//!    wheel reads a turn the robot did not make).
 //! 2. **Recovery** after a gap: when under `mapper.recover_below_inlier_share` of the points
 //!    are inliers (not with the odometry prior), a window search over the whole circle within
 //!    [`RECOVER_TRANSLATION_M`] of the anchor, ICP from its best pose and rival; kept only when
 //!    it fits well and doubles the inliers.
 //! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
-//!    [`search_window`], or the whole map every `tracking.relocalize_every_lost` scans lost in
-//!    a row; ICP from its best pose replaces ICP from the starts only with
+//!    [`search_window`] (where ICP fits poorly, as wide as the recent motion, and with the
+//!    odometry prior reaching the constant-velocity guess where odometry disagrees with it),
+//!    or the whole map every `tracking.relocalize_every_lost` scans lost in a row; ICP from its best pose replaces ICP from the starts only with
 //!    `tracking.search_win_margin` more inliers (plus two). Without odometry, a pose ICP put
 //!    on its fallback (`TrackInput::unobserved_to`: the previous pose, or moved by the last
 //!    observed motion) along a direction it could not observe is searched too, and the search's
@@ -46,7 +50,8 @@
 //!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
 //!    from another hypothesis has `tracking.corner_rival_below` of its inliers; with the
 //!    odometry prior only a pose turned at most `tracking.odometry_max_window_deg` from the odometry
-//!    guess may win (any may veto); with point-to-segment ICP only a pose within reach of the
+//!    guess (or from the constant-velocity guess where odometry disagrees with it) may win (any
+//!    may veto); with point-to-segment ICP only a pose within reach of the
 //!    last `ok` pose in the time the stamps give ([`Tracker::within_reach`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
@@ -480,22 +485,37 @@ impl Tracker<'_> {
         self.search_in(&window, result, unobserved)
     }
 
-    /// The window around the prediction ([`search_window`]); while ICP's `result` fits under
-    /// `tracking.search_below_inlier_share` of the points, also as wide as the recent motion
+    /// Whether ICP's `result` fits under `tracking.search_below_inlier_share` of the points.
+    fn fits_poorly(&self, result: &AlignResult) -> bool {
+        let share = result.inliers as f64 / self.points.len().max(1) as f64;
+        share < self.config.tracking.search_below_inlier_share
+    }
+
+    /// The window around the prediction ([`search_window`]); while ICP's `result` fits poorly
+    /// ([`Tracker::fits_poorly`]), also as wide as the recent motion
     /// (`tracking.window_per_recent`): the robot may have moved on at its recent speed after a
-    /// stop, or turned as it did lately. The recent motion is every step tracked, corrections
-    /// after a poor fit included: at worst a few scans get the widest window.
+    /// stop, or turned as it did lately; and with the odometry prior, as far as the
+    /// constant-velocity guess where odometry disagrees with it. The recent motion is every
+    /// step tracked, corrections after a poor fit included: at worst a few scans get the
+    /// widest window.
     fn window(&self, result: &AlignResult) -> SearchWindow {
         let (input, tracking) = (self.input, self.config.tracking);
-        let share = result.inliers as f64 / self.points.len().max(1) as f64;
+        let poor = self.fits_poorly(result);
         let none = RecentMotion::default();
-        let recent = match share < tracking.search_below_inlier_share {
+        let recent = match poor {
             true => input.recent,
             false => &none,
         };
+        // Where odometry disagrees with the scans' own motion and fits poorly (a slip, a
+        // stalled wheel's turn), the window reaches from the odometry's pose to the
+        // constant-velocity one.
+        let anchor = match poor {
+            true => self.odometry_disagrees().unwrap_or(input.anchor),
+            false => input.anchor,
+        };
         search_window(
             &input.guess,
-            &input.anchor,
+            &anchor,
             recent,
             input.lost_streak,
             self.config.starts.motion_prior == MotionPrior::Odometry,
@@ -634,9 +654,14 @@ impl Tracker<'_> {
             .map(|c| self.run_near(c.map_from_robot))
             .collect();
         // Only a pose within the turn bound may win; any pose may veto it as a rival.
+        // The turn from the odometry's guess, or from the scans' own motion where odometry
+        // disagrees with it (a stalled wheel reads a turn the robot did not make).
         let max_turn = corner_turn_rad(odometry, tracking);
+        let cv = self.odometry_disagrees();
         let turned = |r: &AlignResult| {
-            normalize_angle_rad(r.map_from_robot.theta_rad - input.guess.theta_rad).abs()
+            let from =
+                |p: &Pose2| normalize_angle_rad(r.map_from_robot.theta_rad - p.theta_rad).abs();
+            cv.map_or(from(&input.guess), |cv| from(&input.guess).min(from(&cv)))
         };
         let best = best_of(
             all.iter()
@@ -703,21 +728,14 @@ impl Tracker<'_> {
             .then_some(cv)
     }
 
-    /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
-    /// nothing to align to.
-    fn icp_from_starts(&self) -> Option<AlignResult> {
+    /// Where ICP may start, before [`MapperParams::icp_from_best_start_only`] picks one: the
+    /// guess; the anchor when they differ (a constant-velocity guess is wrong when a turn
+    /// starts, stops or reverses); the constant-velocity guess where odometry disagrees with
+    /// it; the last `ok` pose after a lost scan; the
+    /// best coarse rotation around the guess when the robot turned faster than ICP's basin.
+    fn starts(&self) -> Vec<Pose2> {
         let (input, params, policy) = (self.input, self.config.align, self.config.starts);
-        if input.map.is_empty() || input.points_in_robot.is_empty() {
-            return None;
-        }
         let (guess, anchor) = (input.guess, input.anchor);
-        let near = match params.method {
-            AlignMethod::PointToSegment => Vec::new(),
-            AlignMethod::Endpoints => segments_near(input, &guess, params)?,
-        };
-        // Starts: the guess; the anchor when they differ (a constant-velocity guess is wrong
-        // when a turn starts, stops or reverses); the best coarse rotation when the robot turned
-        // faster than ICP's basin. Which one ICP runs from: see `icp_from_best_start_only`.
         let mut starts = vec![guess];
         if policy.also_start_at_anchor && anchor != guess {
             starts.insert(0, anchor);
@@ -740,6 +758,21 @@ impl Tracker<'_> {
         if searched != guess {
             starts.push(searched);
         }
+        starts
+    }
+
+    /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
+    /// nothing to align to.
+    fn icp_from_starts(&self) -> Option<AlignResult> {
+        let (input, params, policy) = (self.input, self.config.align, self.config.starts);
+        if input.map.is_empty() || input.points_in_robot.is_empty() {
+            return None;
+        }
+        let near = match params.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => segments_near(input, &input.guess, params)?,
+        };
+        let mut starts = self.starts();
         if policy.icp_from_best_start_only && starts.len() > 1 {
             let margin = policy.start_score_margin;
             starts = vec![best_scoring(
@@ -750,7 +783,23 @@ impl Tracker<'_> {
                 margin,
             )];
         }
-        let result = best_of(starts.into_iter().map(|s| self.run(&near, s)))?;
+        let mut result = best_of(starts.into_iter().map(|s| self.run(&near, s)))?;
+        // Where that fits poorly and odometry disagrees with the scans' own motion, the
+        // odometry's turn may be the fault (a stalled wheel reads its partner's distance over
+        // the wheel base as a turn): also from the best coarse rotation around the
+        // constant-velocity guess, not only around the odometry's.
+        if let Some(cv) = self
+            .odometry_disagrees()
+            .filter(|_| self.fits_poorly(&result))
+        {
+            let turned = rotation_search(self.points, input.map, cv, params);
+            if turned != cv {
+                let from_turned = self.run(&near, turned);
+                if better(&from_turned, &result) {
+                    result = from_turned;
+                }
+            }
+        }
         // With odometry the guess already carries the turn; a poor fit after a gap then
         // means stale odometry, which the next increment makes good (a recovery would turn
         // the pose and the increment would turn it again).
@@ -1300,13 +1349,18 @@ mod tests {
             motion_prior: MotionPrior::Odometry,
             ..MapperParams::default()
         };
-        let corner_with = |starts: &MapperParams, tracking: &TrackParams| {
+        let corner_from = |cv: Option<Pose2>, starts: &MapperParams, tracking: &TrackParams| {
             with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
                 let config = TrackConfig {
                     starts,
                     ..*t.config
                 };
+                let input = TrackInput {
+                    constant_velocity: cv,
+                    ..*t.input
+                };
                 let tracker = Tracker {
+                    input: &input,
                     config: &config,
                     ..*t
                 };
@@ -1314,10 +1368,100 @@ mod tests {
                 tracker.icp_from_corners(&current).map(|r| r.map_from_robot)
             })
         };
+        let corner_with =
+            |starts: &MapperParams, tracking: &TrackParams| corner_from(None, starts, tracking);
         let near = |p: Option<Pose2>| p.is_some_and(|p| truth.between(&p).theta_rad.abs() < 0.05);
         assert!(near(corner_with(&MapperParams::default(), &bound)));
         assert!(near(corner_with(&odometry, &TrackParams::default())));
         assert!(!near(corner_with(&odometry, &bound)));
+        // Where odometry disagrees with the scans' own motion (a stalled wheel's turn), the
+        // bound holds from either guess: the constant-velocity one is 30° from the truth.
+        let cv = Pose2::new(guess.x_m, guess.y_m, 40f64.to_radians());
+        assert!(near(corner_from(Some(cv), &odometry, &bound)));
+    }
+
+    /// With the odometry prior, `f` of the tracker of a scan taken at `truth` in
+    /// [`unlike_room`] whose odometry guess (also the anchor) is `guess` and whose
+    /// constant-velocity guess is `cv`, with these ICP and tracking parameters.
+    fn with_odometry_tracker<R>(
+        (truth, guess, cv): (Pose2, Pose2, Pose2),
+        align: &AlignParams,
+        tracking: &TrackParams,
+        f: impl FnOnce(&Tracker) -> R,
+    ) -> R {
+        let world = unlike_room();
+        let map = map_of(&world, 0.5);
+        let scene = (&world[..], &map, truth, guess, 0);
+        let odometry = MapperParams {
+            motion_prior: MotionPrior::Odometry,
+            icp_from_best_start_only: false,
+            ..MapperParams::default()
+        };
+        with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
+            let input = TrackInput {
+                constant_velocity: Some(cv),
+                ..*t.input
+            };
+            let config = TrackConfig {
+                starts: &odometry,
+                align,
+                ..*t.config
+            };
+            f(&Tracker {
+                input: &input,
+                config: &config,
+                ..*t
+            })
+        })
+    }
+
+    /// A stalled wheel read a turn of 70° the robot did not make, while it turned 20° the
+    /// other way (ACES with such faults, every 5th scan: the odometry guess 94° from the
+    /// truth, and the run 4.9 m off): the odometry's guess is 90° from the truth, beyond the
+    /// coarse rotations around it (±24°) and the window around it; the constant-velocity guess
+    /// (the robot's last step, no turn) is 20° and 0.2 m off.
+    fn stalled_wheel() -> (Pose2, Pose2, Pose2) {
+        let truth = Pose2::new(4.0, 3.0, 0.0);
+        let cv = Pose2::new(3.8, 3.1, 20f64.to_radians());
+        (truth, Pose2::new(cv.x_m, cv.y_m, 90f64.to_radians()), cv)
+    }
+
+    #[test]
+    fn with_odometry_a_stalled_wheels_turn_is_searched_around_the_scans_own_motion() {
+        // ICP narrowed to three iterations, so that from the constant-velocity guess (20° and
+        // 0.2 m off) it fits poorly too: ICP from the best coarse rotation around that guess
+        // finds the pose; the coarse rotations around the odometry's guess cannot.
+        let narrow = AlignParams {
+            max_iterations: 3,
+            ..AlignParams::default()
+        };
+        let (truth, guess, cv) = stalled_wheel();
+        let tracking = TrackParams::default();
+        let (from_cv, found) = with_odometry_tracker((truth, guess, cv), &narrow, &tracking, |t| {
+            (t.run(&[], cv), t.icp_from_starts())
+        });
+        assert!(
+            from_cv.inliers < found.map_or(0, |r| r.inliers) / 2,
+            "{from_cv:?}"
+        );
+        assert_near(&truth, &(found, Tracking::default()));
+    }
+
+    #[test]
+    fn with_odometry_that_disagrees_the_window_reaches_the_scans_own_motion() {
+        let (truth, guess, cv) = stalled_wheel();
+        let (align, tracking) = (AlignParams::default(), TrackParams::default());
+        let window = with_odometry_tracker((truth, guess, cv), &align, &tracking, |t| {
+            let current = t.run(&[], guess);
+            t.window(&current)
+        });
+        let off = window.center.between(&cv);
+        let margin = tracking.min_window_deg.to_radians();
+        assert!(
+            off.theta_rad.abs() + margin <= window.half_theta_rad + 1e-9,
+            "{window:?}"
+        );
+        assert!(off.translation().length() <= window.half_xy_m, "{window:?}");
     }
 
     /// A corridor 2 m wide whose only features along it are two door frames 0.4 m deep, 3 m
