@@ -466,7 +466,7 @@ impl Mapper {
         let i = self.scans;
         let t = self.first_scan.saturating_add(i);
         let clock = Instant::now();
-        let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot);
+        let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot, scan.stamp_s);
         let placing = self.placement != Placement::Placed;
         let (align, tracking) = match placing {
             true => self.place(&scan),

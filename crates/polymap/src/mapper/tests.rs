@@ -261,3 +261,56 @@ fn weakly_observed_scans_are_counted_apart_within_the_weak() {
         serde_json::from_str(r#"{"ok": 3, "weak": 1, "lost": 0, "lost_ranges": []}"#).unwrap();
     assert_eq!(old.weakly_observed, 0);
 }
+
+/// A corridor 2 m wide with a few door recesses at uneven spacing: ICP observes a step along it
+/// only near a recess, and a long step not at all.
+fn recessed_corridor() -> Vec<Segment> {
+    let mut walls = Vec::new();
+    let mut wall = |y: f64, doors: &[f64]| {
+        let side = y.signum();
+        let mut x0 = -3.0;
+        for &d in doors {
+            walls.push(seg(x0, y, d, y));
+            walls.push(seg(d, y, d, y + 0.3 * side));
+            walls.push(seg(d, y + 0.3 * side, d + 0.9, y + 0.3 * side));
+            walls.push(seg(d + 0.9, y + 0.3 * side, d + 0.9, y));
+            x0 = d + 0.9;
+        }
+        walls.push(seg(x0, y, 40.0, y));
+    };
+    wall(-1.0, &[2.0, 6.5, 13.0]);
+    wall(1.0, &[4.2, 9.5, 15.5]);
+    walls.push(seg(-3.0, -1.0, -3.0, 1.0));
+    walls
+}
+
+/// Scans missing from a log (a gap of 1.5 s where the laser gives one every 0.1 s, the robot
+/// going on at 1 m/s): the scan after the gap is predicted over the gap's time, and the
+/// corridor is tracked; a log whose stamps bunch says nothing about time.
+#[test]
+fn a_gap_in_the_log_is_predicted_over_its_time() {
+    let walls = recessed_corridor();
+    let run = |gap_scans: usize, stamp_of: &dyn Fn(usize) -> f64| {
+        let mut mapper = Mapper::new(Config::default());
+        let mut pairs = Vec::new();
+        for i in (0..40).chain(40 + gap_scans..80 + gap_scans) {
+            let truth = Pose2::new(0.1 * i as f64, 0.0, 0.0);
+            let u = mapper.push(&scan_from(&walls, &truth, stamp_of(i)));
+            pairs.push((truth, u.map_from_robot));
+        }
+        max_error(&pairs).0
+    };
+    let timed = |i: usize| 0.1 * i as f64;
+    let error = run(15, &timed);
+    assert!(error < 0.1, "{error} m off after the gap");
+    let unbroken = run(0, &timed);
+    assert!(unbroken < 0.1, "{unbroken} m off without a gap");
+    // Stamps that bunch (every other scan 1 ms after the one before) do not time the gap:
+    // the prediction is one scan's motion, as before.
+    let bunched = |i: usize| 0.2 * (i / 2) as f64 + 0.001 * (i % 2) as f64;
+    let mut speed = ObservedSpeed::default();
+    for i in 0..40 {
+        speed.record(Some(Pose2::new(0.1, 0.0, 0.0)), true, Some(bunched(i)));
+    }
+    assert_eq!(speed.gap_scale(Some(bunched(55))), 1.0);
+}

@@ -14,7 +14,15 @@ impl Mapper {
     /// taken from the prior never feeds back, so it cannot run on by itself. Otherwise the fallback keeps
     /// `weak_direction_velocity` of the last motion (0: the previous pose). The odometry guess
     /// is evidence of motion and is its own anchor and fallback.
-    pub(super) fn guess(&self, odom_from_robot: Option<Pose2>) -> (Pose2, Pose2, Pose2) {
+    ///
+    /// Without odometry, a scan after a gap in a log whose stamps keep time
+    /// ([`ObservedSpeed::gap_scale`]) is predicted over the gap's time: the motion per scan
+    /// times the gap, not one scan's worth.
+    pub(super) fn guess(
+        &self,
+        odom_from_robot: Option<Pose2>,
+        stamp_s: Option<f64>,
+    ) -> (Pose2, Pose2, Pose2) {
         let prior = self.config.mapper.motion_prior;
         let Some(last) = self.last_pose else {
             // The map frame: the first scan's pose, or odometry's frame when odometry is used.
@@ -30,11 +38,14 @@ impl Mapper {
                 let Some(prev) = self.prev_pose else {
                     return (last, last, last);
                 };
-                let v = prev.between(&last);
+                // The last step per scan (it may have spanned a gap), times this scan's gap.
+                let scale = self.observed.gap_scale(stamp_s) / self.observed.last_gap_scale();
+                let v = scaled(&prev.between(&last), scale);
                 let predicted = last.compose(&v);
                 match self.observed.motion() {
                     Some(m) if self.config.mapper.keep_observed_velocity => {
-                        (predicted, last, last.compose(&m))
+                        let over_gap = scaled(&m, self.observed.gap_scale(stamp_s));
+                        (predicted, last, last.compose(&over_gap))
                     }
                     _ => {
                         let f = self.config.mapper.weak_direction_velocity.clamp(0.0, 1.0);
@@ -94,6 +105,29 @@ impl Mapper {
 /// How many recent time steps give the typical one.
 const TYPICAL_DT_STEPS: usize = 15;
 
+/// A time step at least this many typical ones is a gap (scans missing from the log) that the
+/// constant-velocity prediction spans ([`ObservedSpeed::gap_scale`]); below it, jitter.
+const GAP_ABOVE_TYPICAL: f64 = 3.0;
+
+/// The prediction spans at most this many typical time steps of a gap: beyond it a robot
+/// seldom keeps its motion, and the window search and corner poses take over.
+const GAP_SCALE_MAX: f64 = 20.0;
+
+/// Stamps keep time when at most this many of the recent time steps lie outside half to twice
+/// the typical one (a gap just before allowed): a log whose laser stamps bunch and stall (Intel's:
+/// 1 % of its windows of 15 are regular, and its step per scan is the same whatever the time
+/// step) is not timed by them.
+const IRREGULAR_STEPS_AT_MOST: usize = 1;
+
+/// A motion step `m` (robot frame) times `k`: translation and turn scaled alike (a straight
+/// extrapolation, close to the arc for the turns of a few scans).
+fn scaled(m: &Pose2, k: f64) -> Pose2 {
+    if k == 1.0 {
+        return *m;
+    }
+    Pose2::new(m.x_m * k, m.y_m * k, m.theta_rad * k)
+}
+
 /// The last motion observed between two scans (`mapper.keep_observed_velocity`): the step from
 /// a scan tracked `ok` with every direction observed to the next such scan, robot frame of the
 /// first; not from a step whose stamps say it spans a gap or a burst (under half or over twice
@@ -109,6 +143,10 @@ pub(super) struct ObservedSpeed {
     dts: [f64; TYPICAL_DT_STEPS],
     filled: usize,
     next: usize,
+    /// [`ObservedSpeed::gap_scale`] of the last step recorded (1 before any).
+    last_gap_scale: Option<f64>,
+    /// Steps recorded since the last whose stamps did not increase (or were missing).
+    in_time: usize,
 }
 
 impl ObservedSpeed {
@@ -120,6 +158,7 @@ impl ObservedSpeed {
     /// Takes the step to the scan just tracked (`None` for the first), whether that scan was
     /// observed (`ok`, every direction, not a corner pose), and its stamp (seconds).
     pub(super) fn record(&mut self, step: Option<Pose2>, observed: bool, stamp_s: Option<f64>) {
+        self.last_gap_scale = Some(self.gap_scale(stamp_s));
         let dt = match (self.last_stamp_s, stamp_s) {
             (Some(a), Some(b)) if b > a => Some(b - a),
             _ => None,
@@ -137,8 +176,43 @@ impl ObservedSpeed {
             self.next = (self.next + 1) % TYPICAL_DT_STEPS;
             self.filled = (self.filled + 1).min(TYPICAL_DT_STEPS);
         }
+        // A stamp that does not increase (or is missing) restarts the count of steps in time.
+        self.in_time = match dt {
+            Some(_) => self.in_time.saturating_add(1),
+            None => 0,
+        };
         self.last_observed = observed;
         self.last_stamp_s = stamp_s;
+    }
+
+    /// How many scans' worth of time the step to a scan stamped `stamp_s` spans: its time step
+    /// over the typical one when that is at least [`GAP_ABOVE_TYPICAL`] (at most
+    /// [`GAP_SCALE_MAX`]) and the stamps keep time (the last [`TYPICAL_DT_STEPS`] stamps
+    /// increased, and at most [`IRREGULAR_STEPS_AT_MOST`] of those time steps lie outside half
+    /// to twice the typical one); otherwise 1.
+    pub(super) fn gap_scale(&self, stamp_s: Option<f64>) -> f64 {
+        let (Some(a), Some(b)) = (self.last_stamp_s, stamp_s) else {
+            return 1.0;
+        };
+        let timed = self.filled == TYPICAL_DT_STEPS && self.in_time >= TYPICAL_DT_STEPS;
+        let Some(typical) = self.typical_dt_s().filter(|_| timed) else {
+            return 1.0;
+        };
+        let irregular = self
+            .dts
+            .iter()
+            .filter(|&&dt| !(0.5 * typical..=2.0 * typical).contains(&dt))
+            .count();
+        let ratio = (b - a) / typical;
+        match irregular <= IRREGULAR_STEPS_AT_MOST && ratio >= GAP_ABOVE_TYPICAL {
+            true => ratio.min(GAP_SCALE_MAX),
+            false => 1.0,
+        }
+    }
+
+    /// [`ObservedSpeed::gap_scale`] of the last step recorded: 1 before any.
+    pub(super) fn last_gap_scale(&self) -> f64 {
+        self.last_gap_scale.unwrap_or(1.0)
     }
 
     /// The median of the recent time steps, once there are a third of the ring.
@@ -201,6 +275,43 @@ mod tests {
         unstamped.record(None, true, None);
         unstamped.record(Some(faster), true, None);
         assert_eq!(unstamped.motion(), Some(faster));
+    }
+
+    #[test]
+    fn a_gap_spans_its_time_only_where_the_stamps_keep_time() {
+        let step = Some(Pose2::new(0.1, 0.0, 0.0));
+        let mut speed = ObservedSpeed::default();
+        for k in 0..=TYPICAL_DT_STEPS {
+            speed.record(step, true, Some(0.1 * k as f64));
+        }
+        let last = 0.1 * TYPICAL_DT_STEPS as f64;
+        assert!((speed.gap_scale(Some(last + 0.5)) - 5.0).abs() < 1e-9);
+        // Jitter under three time steps is no gap; a long gap is spanned only so far.
+        assert_eq!(speed.gap_scale(Some(last + 0.25)), 1.0);
+        assert_eq!(speed.gap_scale(Some(last + 10.0)), GAP_SCALE_MAX);
+        assert_eq!(speed.gap_scale(None), 1.0);
+        // The step just recorded spanned a gap: the next prediction divides it back.
+        speed.record(step, true, Some(last + 0.5));
+        assert!((speed.last_gap_scale() - 5.0).abs() < 1e-9);
+        // A stamp going back: no gap until the stamps have kept time for a ring's worth.
+        let mut t = last + 0.5;
+        speed.record(step, true, Some(t - 1.0));
+        for _ in 0..TYPICAL_DT_STEPS - 1 {
+            t += 0.1;
+            speed.record(step, true, Some(t));
+            assert_eq!(speed.gap_scale(Some(t + 0.5)), 1.0);
+        }
+        t += 0.1;
+        speed.record(step, true, Some(t));
+        assert!(speed.gap_scale(Some(t + 0.5)) > 4.0);
+        // Uneven time steps (more than one of the ring off by over twice): no gap.
+        let mut uneven = ObservedSpeed::default();
+        let mut t = 0.0;
+        for k in 0..=TYPICAL_DT_STEPS {
+            t += if k % 3 == 0 { 0.5 } else { 0.1 };
+            uneven.record(step, true, Some(t));
+        }
+        assert_eq!(uneven.gap_scale(Some(t + 1.0)), 1.0);
     }
 
     #[test]
