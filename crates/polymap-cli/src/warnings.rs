@@ -11,7 +11,8 @@ pub fn report_reader_warnings(stats: &CarmenStats) {
     }
 }
 
-/// Says when tracking failed: the scans lost (not in the map), or a large share of weak ones.
+/// Says when tracking failed: the scans lost (not in the map), or a large share of weak ones;
+/// and where scans are missing from the log (gaps in stamps that keep time).
 pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
     if t.lost > 0 {
         let ranges: Vec<String> = t
@@ -36,6 +37,21 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
              in the map and their poses are unreliable (summary.json: tracking)",
             t.lost,
             ranges.join(", ")
+        );
+    }
+    if t.gaps > 0 {
+        let listed: Vec<String> = t.gap_scans.iter().take(10).map(|s| s.to_string()).collect();
+        let more = if t.gaps as usize > listed.len() {
+            ", ..."
+        } else {
+            ""
+        };
+        eprintln!(
+            "polymap: warning: {} gap(s) in the log, where scans are missing (a time step at \
+             least 3 times the usual one; the scans after them: {}{more}): tracking across a gap is less \
+             sure, check the map there (summary.json: tracking.gaps)",
+            t.gaps,
+            listed.join(", ")
         );
     }
     // Scans weak only because a direction was observed by few points are common along any

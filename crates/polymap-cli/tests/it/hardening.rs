@@ -688,3 +688,50 @@ fn an_odometry_jump_is_warned_and_does_not_wreck_the_map() {
         .unwrap_or_else(|| panic!("no ATE rms in {v}"));
     assert!(rmse < 0.5, "ATE {rmse} m");
 }
+
+/// Scans missing from a log (15 in a row dropped from the simulated office): a counted warning
+/// naming the scan after the gap, and `summary.json` `tracking.gaps`; the whole log has none.
+#[test]
+fn a_gap_in_the_log_is_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = office_log(dir.path());
+    let mut flaser = 0;
+    let gapped: String = fs::read_to_string(&whole)
+        .unwrap()
+        .lines()
+        .filter(|l| {
+            if !l.starts_with("FLASER") {
+                return true;
+            }
+            flaser += 1;
+            !(301..=315).contains(&flaser)
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let log = dir.path().join("gapped.clf");
+    fs::write(&log, gapped).unwrap();
+    let run = |log: &Path, name: &str| {
+        let out = dir.path().join(name);
+        let o = polymap(&[
+            "map",
+            log.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let summary: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        (String::from_utf8_lossy(&o.stderr).into_owned(), summary)
+    };
+    let (stderr, summary) = run(&log, "gapped");
+    assert!(
+        stderr.contains("1 gap(s) in the log") && stderr.contains("the scans after them: 300)"),
+        "{stderr}"
+    );
+    assert_eq!(summary["tracking"]["gaps"], 1, "{summary}");
+    assert_eq!(summary["tracking"]["gap_scans"][0], 300, "{summary}");
+    let (stderr, summary) = run(&whole, "whole");
+    assert!(!stderr.contains("gap(s) in the log"), "{stderr}");
+    assert_eq!(summary["tracking"]["gaps"], 0, "{summary}");
+}

@@ -200,7 +200,18 @@ pub struct TrackingSummary {
     pub lost: u32,
     /// Inclusive ranges `[first, last]` of consecutive lost scans (scan indices, 0-based).
     pub lost_ranges: Vec<[u32; 2]>,
+    /// Scans that follow a gap in the log: a time step at least 3 typical ones, in stamps
+    /// that keep time (scans are missing there; without odometry the motion across it is
+    /// predicted over its time). Stamps that bunch or go back say nothing, and count none.
+    #[serde(default)]
+    pub gaps: u32,
+    /// The first [`MAX_GAP_SCANS`] of them (scan indices, 0-based).
+    #[serde(default)]
+    pub gap_scans: Vec<u32>,
 }
+
+/// At most this many gap scans are listed in [`TrackingSummary::gap_scans`] (all are counted).
+pub const MAX_GAP_SCANS: usize = 100;
 
 impl TrackingSummary {
     /// Counts the lost scans `first..=last` (one lost range) as weak instead.
@@ -210,6 +221,14 @@ impl TrackingSummary {
             self.lost_ranges.remove(i);
             self.lost -= n;
             self.weak += n;
+        }
+    }
+
+    /// Counts scan `t` as following a gap in the log.
+    fn count_gap(&mut self, t: u32) {
+        self.gaps += 1;
+        if self.gap_scans.len() < MAX_GAP_SCANS {
+            self.gap_scans.push(t);
         }
     }
 
@@ -501,6 +520,9 @@ impl Mapper {
             let step = self.last_pose.map(|last| last.between(&pose));
             self.observed
                 .record(step, observed && !tracking.corner_won, scan.stamp_s);
+            if self.observed.last_gap_scale() > 1.0 {
+                self.verdicts.count_gap(i);
+            }
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
             if tracking.verdict == Verdict::Ok {

@@ -298,13 +298,16 @@ fn a_gap_in_the_log_is_predicted_over_its_time() {
             let u = mapper.push(&scan_from(&walls, &truth, stamp_of(i)));
             pairs.push((truth, u.map_from_robot));
         }
-        max_error(&pairs).0
+        (max_error(&pairs).0, mapper.tracking_summary().clone())
     };
     let timed = |i: usize| 0.1 * i as f64;
-    let error = run(15, &timed);
+    let (error, summary) = run(15, &timed);
     assert!(error < 0.1, "{error} m off after the gap");
-    let unbroken = run(0, &timed);
+    // The scan after the gap, 41st pushed, is counted.
+    assert_eq!((summary.gaps, summary.gap_scans), (1, vec![40]));
+    let (unbroken, summary) = run(0, &timed);
     assert!(unbroken < 0.1, "{unbroken} m off without a gap");
+    assert_eq!(summary.gaps, 0);
     // Stamps that bunch (every other scan 1 ms after the one before) do not time the gap:
     // the prediction is one scan's motion, as before.
     let bunched = |i: usize| 0.2 * (i / 2) as f64 + 0.001 * (i % 2) as f64;
