@@ -30,6 +30,7 @@ struct Payload<'a> {
     snapshots: Vec<SnapshotPayload>,
     series: [SeriesPayload<'a>; 4],
     lost_ranges: &'a [[u32; 2]],
+    gap_scans: &'a [u32],
     map_consistency: Option<MapConsistency>,
 }
 
@@ -122,6 +123,7 @@ fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
             series("ICP iterations", "", &d.icp_iterations, 0),
         ],
         lost_ranges: &data.lost_ranges,
+        gap_scans: &data.gap_scans,
         map_consistency: data.map_consistency,
     }
 }

@@ -60,11 +60,19 @@ pub struct ReportData {
     /// the page's time lines).
     #[serde(default)]
     pub lost_ranges: Vec<[u32; 2]>,
+    /// Scans that follow a gap in the log (marked on the page's time lines), the first
+    /// [`MAX_GAP_MARKS`].
+    #[serde(default)]
+    pub gap_scans: Vec<u32>,
     /// The run's check of the map as a whole (`summary.json` `map_consistency`), when the
     /// scans observed the map; shown beside the counts.
     #[serde(default)]
     pub map_consistency: Option<MapConsistency>,
 }
+
+/// At most this many gap marks are kept for the page (a log of dropouts has many; the count
+/// is in `summary.json`).
+pub const MAX_GAP_MARKS: usize = 1000;
 
 /// How often the run's scans saw through the map's walls for each time they saw one
 /// ([`polymap::observe::seen_through_share`]), and the share above which the map is called
@@ -157,6 +165,10 @@ pub struct ScanStat {
     /// Tracking was lost on this scan.
     #[serde(default)]
     pub lost: bool,
+    /// The scan follows a gap in the log (scans missing; see
+    /// [`polymap::mapper::ScanDiagnostics::after_gap`]).
+    #[serde(default)]
+    pub after_gap: bool,
 }
 
 impl ScanStat {
@@ -171,6 +183,7 @@ impl ScanStat {
             scan_segments: sat(d.scan_segments),
             map_segments: sat(d.map_segments),
             lost: d.tracking.verdict == polymap::align::Verdict::Lost,
+            after_gap: d.after_gap,
         }
     }
 }

@@ -247,6 +247,11 @@
       var x0 = left + w * r[0] / xmax, x1 = left + w * (r[1] + 1) / xmax;
       ctx.fillRect(x0, top, Math.max(1, x1 - x0), h);
     });
+    // Scans that follow a gap in the log (scans missing there), a thin mark each.
+    ctx.fillStyle = 'rgba(230, 140, 0, 0.8)';
+    (D.gap_scans || []).forEach(function (t) {
+      ctx.fillRect(left + w * t / xmax - 0.5, top, 1, h);
+    });
     var cx = left + w * currentScan() / xmax;
     ctx.strokeStyle = TRAJECTORY; ctx.lineWidth = 1.5;
     ctx.beginPath(); ctx.moveTo(cx, top); ctx.lineTo(cx, top + h); ctx.stroke();
@@ -269,7 +274,9 @@
     $('map-scan').textContent = String(scan);
     $('hist-scan').textContent = String(scan);
     var lost = (D.lost_ranges || []).some(function (r) { return r[0] <= scan && scan <= r[1]; });
-    $('slider-label').textContent = 'scan ' + scan + (lost ? ' (tracking lost)' : '') + ' of ' + D.total_scans +
+    var gap = (D.gap_scans || []).indexOf(scan) >= 0;
+    $('slider-label').textContent = 'scan ' + scan + (lost ? ' (tracking lost)' : '') +
+      (gap ? ' (after a gap in the log)' : '') + ' of ' + D.total_scans +
       ' · snapshot ' + (snaps.length ? state.index + 1 : 0) + '/' + snaps.length;
     var rows = [
       ['segments at this time', snap ? snap.segments.length / 4 : '–'],
@@ -279,6 +286,9 @@
       ['snapshots stored', snaps.length],
       ['trajectory poses stored', D.trajectory_scan.length]
     ];
+    if ((D.gap_scans || []).length) {
+      rows.push(['scans after a gap in the log (orange marks)', D.gap_scans.length]);
+    }
     var mc = D.map_consistency;
     if (mc) {
       rows.push(['walls seen through, per sighting', fmt(100 * mc.seen_through_share, 3) + ' %' +

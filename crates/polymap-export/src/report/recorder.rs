@@ -50,6 +50,7 @@ pub struct ReportRecorder {
     scan_segments: MinMaxSeries,
     map_segments: MinMaxSeries,
     lost_ranges: Vec<[u32; 2]>,
+    gap_scans: Vec<u32>,
 }
 
 impl ReportRecorder {
@@ -67,6 +68,7 @@ impl ReportRecorder {
             scan_segments: series(),
             map_segments: series(),
             lost_ranges: Vec::new(),
+            gap_scans: Vec::new(),
             budget,
         }
     }
@@ -133,6 +135,9 @@ impl ReportRecorder {
         self.scan_segments
             .push(point(f64::from(stat.scan_segments)));
         self.map_segments.push(point(f64::from(stat.map_segments)));
+        if stat.after_gap && self.gap_scans.len() < super::MAX_GAP_MARKS {
+            self.gap_scans.push(stat.scan_index);
+        }
         if stat.lost {
             let t = stat.scan_index;
             match self.lost_ranges.last_mut() {
@@ -180,6 +185,7 @@ impl ReportRecorder {
                 map_segments: self.map_segments.points(),
             },
             lost_ranges: self.lost_ranges,
+            gap_scans: self.gap_scans,
             map_consistency: None,
         }
     }

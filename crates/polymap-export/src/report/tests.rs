@@ -18,6 +18,7 @@ fn record_growing_map(scans: u32, budget: ReportBudget) -> (ReportData, u32) {
             scan_segments: 4,
             map_segments: t + 1,
             lost: false,
+            after_gap: false,
         };
         recorder.record(stat, Pose2::new(f64::from(t), 0.0, 0.0), || {
             built += 1;
@@ -130,6 +131,7 @@ fn an_intel_sized_run_renders_to_a_few_megabytes() {
             scan_segments: 12,
             map_segments: (t / 9).min(1500),
             lost: false,
+            after_gap: false,
         };
         let pose = Pose2::new(
             0.01 * f64::from(t % 3000),
@@ -156,22 +158,25 @@ fn an_intel_sized_run_renders_to_a_few_megabytes() {
 }
 
 #[test]
-fn lost_scans_become_ranges_on_the_time_line() {
+fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
     let mut recorder = ReportRecorder::new("lost", ReportBudget::default());
     for t in 0..10u32 {
         let stat = ScanStat {
             scan_index: t,
             lost: matches!(t, 2..=4 | 7),
+            after_gap: t == 5,
             ..Default::default()
         };
         recorder.record(stat, Pose2::IDENTITY, SnapshotContent::default);
     }
     let data = recorder.finish(SnapshotContent::default());
     assert_eq!(data.lost_ranges, vec![[2, 4], [7, 7]]);
+    assert_eq!(data.gap_scans, vec![5]);
     let html =
         crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &data)
             .expect("renders");
     assert!(html.contains("\"lost_ranges\":[[2,4],[7,7]]"));
+    assert!(html.contains("\"gap_scans\":[5]"));
     assert!(html.contains("\"map_consistency\":null"));
     let checked = ReportData {
         map_consistency: Some(crate::report::MapConsistency {

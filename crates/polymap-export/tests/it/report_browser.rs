@@ -47,6 +47,8 @@ fn synthetic_report(n: u32, budget: ReportBudget) -> (MapSnapshot, ReportData) {
             scan_segments: 6,
             map_segments: map.len() as u32,
             lost: false,
+            // A gap mark on the time lines, drawn by the page.
+            after_gap: t == 12,
         };
         recorder.record(stat, pose, || {
             SnapshotContent::of_map(&map, t + 1, &DirectionParams::default())

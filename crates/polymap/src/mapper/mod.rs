@@ -47,6 +47,10 @@ pub struct ScanDiagnostics {
     pub loops: LoopDiagnostics,
     /// The tracking verdict and how it was reached.
     pub tracking: Tracking,
+    /// The scan follows a gap in the log: a time step at least 3 typical ones, in stamps that
+    /// keep time (counted in [`TrackingSummary::gaps`]).
+    #[serde(default)]
+    pub after_gap: bool,
 }
 
 /// Wall-clock seconds spent in each stage of one [`Mapper::push`].
@@ -509,6 +513,7 @@ impl Mapper {
             self.place_earlier_scans(&pose, lost);
         }
         let placed = self.placement == Placement::Placed;
+        let mut after_gap = false;
         if placed {
             // Observed: tracked `ok` with every direction observed; a motion between two
             // observed scans is evidence of the robot's speed.
@@ -520,7 +525,8 @@ impl Mapper {
             let step = self.last_pose.map(|last| last.between(&pose));
             self.observed
                 .record(step, observed && !tracking.corner_won, scan.stamp_s);
-            if self.observed.last_gap_scale() > 1.0 {
+            after_gap = self.observed.last_gap_scale() > 1.0;
+            if after_gap {
                 self.verdicts.count_gap(i);
             }
             self.prev_pose = self.last_pose.replace(pose);
@@ -615,6 +621,7 @@ impl Mapper {
             },
             loops,
             tracking,
+            after_gap,
         };
         Update {
             scan_index: i,
