@@ -31,6 +31,7 @@ struct Payload<'a> {
     series: [SeriesPayload<'a>; 4],
     lost_ranges: &'a [[u32; 2]],
     gap_scans: &'a [u32],
+    gaps: u32,
     map_consistency: Option<MapConsistency>,
 }
 
@@ -124,6 +125,7 @@ fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
         ],
         lost_ranges: &data.lost_ranges,
         gap_scans: &data.gap_scans,
+        gaps: data.gaps,
         map_consistency: data.map_consistency,
     }
 }

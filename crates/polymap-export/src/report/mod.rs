@@ -64,6 +64,9 @@ pub struct ReportData {
     /// [`MAX_GAP_MARKS`].
     #[serde(default)]
     pub gap_scans: Vec<u32>,
+    /// How many scans follow a gap in the log (all of them, also beyond the marks).
+    #[serde(default)]
+    pub gaps: u32,
     /// The run's check of the map as a whole (`summary.json` `map_consistency`), when the
     /// scans observed the map; shown beside the counts.
     #[serde(default)]

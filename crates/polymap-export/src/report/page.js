@@ -286,8 +286,9 @@
       ['snapshots stored', snaps.length],
       ['trajectory poses stored', D.trajectory_scan.length]
     ];
-    if ((D.gap_scans || []).length) {
-      rows.push(['scans after a gap in the log (orange marks)', D.gap_scans.length]);
+    var gaps = D.gaps || (D.gap_scans || []).length;
+    if (gaps) {
+      rows.push(['scans after a gap in the log (orange marks)', gaps]);
     }
     var mc = D.map_consistency;
     if (mc) {

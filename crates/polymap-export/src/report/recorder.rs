@@ -51,6 +51,7 @@ pub struct ReportRecorder {
     map_segments: MinMaxSeries,
     lost_ranges: Vec<[u32; 2]>,
     gap_scans: Vec<u32>,
+    gaps: u32,
 }
 
 impl ReportRecorder {
@@ -69,6 +70,7 @@ impl ReportRecorder {
             map_segments: series(),
             lost_ranges: Vec::new(),
             gap_scans: Vec::new(),
+            gaps: 0,
             budget,
         }
     }
@@ -135,8 +137,11 @@ impl ReportRecorder {
         self.scan_segments
             .push(point(f64::from(stat.scan_segments)));
         self.map_segments.push(point(f64::from(stat.map_segments)));
-        if stat.after_gap && self.gap_scans.len() < super::MAX_GAP_MARKS {
-            self.gap_scans.push(stat.scan_index);
+        if stat.after_gap {
+            self.gaps = self.gaps.saturating_add(1);
+            if self.gap_scans.len() < super::MAX_GAP_MARKS {
+                self.gap_scans.push(stat.scan_index);
+            }
         }
         if stat.lost {
             let t = stat.scan_index;
@@ -186,6 +191,7 @@ impl ReportRecorder {
             },
             lost_ranges: self.lost_ranges,
             gap_scans: self.gap_scans,
+            gaps: self.gaps,
             map_consistency: None,
         }
     }

@@ -171,7 +171,7 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
     }
     let data = recorder.finish(SnapshotContent::default());
     assert_eq!(data.lost_ranges, vec![[2, 4], [7, 7]]);
-    assert_eq!(data.gap_scans, vec![5]);
+    assert_eq!((data.gap_scans.clone(), data.gaps), (vec![5], 1));
     let html =
         crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &data)
             .expect("renders");

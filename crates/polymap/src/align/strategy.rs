@@ -23,7 +23,8 @@
 //!    it fits well and doubles the inliers.
 //! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
 //!    [`search_window`] (where ICP fits poorly, as wide as the recent motion, and with the
-//!    odometry prior reaching the constant-velocity guess where odometry disagrees with it),
+//!    odometry prior towards the constant-velocity guess where odometry disagrees with it: its
+//!    heading always, its position up to `tracking.max_window_m`),
 //!    or the whole map every `tracking.relocalize_every_lost` scans lost in a row; ICP from its best pose replaces ICP from the starts only with
 //!    `tracking.search_win_margin` more inliers (plus two). Without odometry, a pose ICP put
 //!    on its fallback (`TrackInput::unobserved_to`: the previous pose, or moved by the last
@@ -507,8 +508,8 @@ impl Tracker<'_> {
             false => &none,
         };
         // Where odometry disagrees with the scans' own motion and fits poorly (a slip, a
-        // stalled wheel's turn), the window reaches from the odometry's pose to the
-        // constant-velocity one.
+        // stalled wheel's turn), the window reaches from the odometry's pose towards the
+        // constant-velocity one (its heading always, its position up to `max_window_m`).
         let anchor = match poor {
             true => self.odometry_disagrees().unwrap_or(input.anchor),
             false => input.anchor,
@@ -794,7 +795,7 @@ impl Tracker<'_> {
         {
             let turned = rotation_search(self.points, input.map, cv, params);
             if turned != cv {
-                let from_turned = self.run(&near, turned);
+                let from_turned = self.run_near(turned);
                 if better(&from_turned, &result) {
                     result = from_turned;
                 }
@@ -1462,6 +1463,23 @@ mod tests {
             "{window:?}"
         );
         assert!(off.translation().length() <= window.half_xy_m, "{window:?}");
+        // Where the odometry's guess fits well, its window is its own, whatever the
+        // constant-velocity guess says (a robot that sped up or turned as odometry saw).
+        let near_truth = Pose2::new(truth.x_m + 0.02, truth.y_m, 0.01);
+        let window = with_odometry_tracker((truth, near_truth, cv), &align, &tracking, |t| {
+            let current = t.run(&[], near_truth);
+            assert!(!t.fits_poorly(&current), "{current:?}");
+            t.window(&current)
+        });
+        let own = search_window(
+            &near_truth,
+            &near_truth,
+            &RecentMotion::default(),
+            0,
+            true,
+            &tracking,
+        );
+        assert_eq!(window, own);
     }
 
     /// A corridor 2 m wide whose only features along it are two door frames 0.4 m deep, 3 m

@@ -293,19 +293,34 @@ fn a_gap_in_the_log_is_predicted_over_its_time() {
     let run = |gap_scans: usize, stamp_of: &dyn Fn(usize) -> f64| {
         let mut mapper = Mapper::new(Config::default());
         let mut pairs = Vec::new();
+        let mut step_after_gap = None;
         for i in (0..40).chain(40 + gap_scans..80 + gap_scans) {
             let truth = Pose2::new(0.1 * i as f64, 0.0, 0.0);
             let u = mapper.push(&scan_from(&walls, &truth, stamp_of(i)));
             pairs.push((truth, u.map_from_robot));
+            if i == 40 + gap_scans {
+                // The prediction for the next scan: one scan's motion, not the gap's.
+                let (guess, _, _) = mapper.guess(None, Some(stamp_of(i + 1)));
+                step_after_gap = Some(u.map_from_robot.between(&guess).x_m);
+            }
         }
-        (max_error(&pairs).0, mapper.tracking_summary().clone())
+        let summary = mapper.tracking_summary().clone();
+        (
+            max_error(&pairs).0,
+            summary,
+            step_after_gap.unwrap_or(f64::NAN),
+        )
     };
     let timed = |i: usize| 0.1 * i as f64;
-    let (error, summary) = run(15, &timed);
+    let (error, summary, step) = run(15, &timed);
     assert!(error < 0.1, "{error} m off after the gap");
+    assert!(
+        (step - 0.1).abs() < 0.02,
+        "{step} m predicted after the gap"
+    );
     // The scan after the gap, 41st pushed, is counted.
     assert_eq!((summary.gaps, summary.gap_scans), (1, vec![40]));
-    let (unbroken, summary) = run(0, &timed);
+    let (unbroken, summary, _) = run(0, &timed);
     assert!(unbroken < 0.1, "{unbroken} m off without a gap");
     assert_eq!(summary.gaps, 0);
     // Stamps that bunch (every other scan 1 ms after the one before) do not time the gap:

@@ -17,7 +17,10 @@ impl Mapper {
     ///
     /// Without odometry, a scan after a gap in a log whose stamps keep time
     /// ([`ObservedSpeed::gap_scale`]) is predicted over the gap's time: the motion per scan
-    /// times the gap, not one scan's worth.
+    /// times the gap, not one scan's worth; the fallback of unobservable directions (the last
+    /// observed motion, or the damped one) spans it too. After a loop correction that moved
+    /// the last two poses by different node corrections, that difference is scaled with the
+    /// step (the same holds for one scan's worth).
     pub(super) fn guess(
         &self,
         odom_from_robot: Option<Pose2>,
@@ -38,9 +41,7 @@ impl Mapper {
                 let Some(prev) = self.prev_pose else {
                     return (last, last, last);
                 };
-                // The last step per scan (it may have spanned a gap), times this scan's gap.
-                let scale = self.observed.gap_scale(stamp_s) / self.observed.last_gap_scale();
-                let v = scaled(&prev.between(&last), scale);
+                let v = self.observed.predicted_step(&prev.between(&last), stamp_s);
                 let predicted = last.compose(&v);
                 match self.observed.motion() {
                     Some(m) if self.config.mapper.keep_observed_velocity => {
@@ -75,8 +76,15 @@ impl Mapper {
         unobserved_to: Pose2,
     ) -> (Option<AlignResult>, Tracking) {
         let (reference, dt_s) = reach_reference(self.last_ok, scan.stamp_s, guess);
+        // As in `guess` (the odometry check compares odometry, which spans a gap, with it).
         let constant_velocity = match (self.prev_pose, self.last_pose) {
-            (Some(prev), Some(last)) => Some(last.compose(&prev.between(&last))),
+            (Some(prev), Some(last)) => Some(
+                last.compose(
+                    &self
+                        .observed
+                        .predicted_step(&prev.between(&last), scan.stamp_s),
+                ),
+            ),
             _ => None,
         };
         let input = TrackInput {
@@ -113,8 +121,8 @@ const GAP_ABOVE_TYPICAL: f64 = 3.0;
 /// seldom keeps its motion, and the window search and corner poses take over.
 const GAP_SCALE_MAX: f64 = 20.0;
 
-/// Stamps keep time when at most this many of the recent time steps lie outside half to twice
-/// the typical one (a gap just before allowed): a log whose laser stamps bunch and stall (Intel's:
+/// Stamps keep time when the last [`TYPICAL_DT_STEPS`] time steps increased and at most this
+/// many of them lie outside half to twice the typical one (a gap just before allowed): a log whose laser stamps bunch and stall (Intel's:
 /// 1 % of its windows of 15 are regular, and its step per scan is the same whatever the time
 /// step) is not timed by them.
 const IRREGULAR_STEPS_AT_MOST: usize = 1;
@@ -158,7 +166,7 @@ impl ObservedSpeed {
     /// Takes the step to the scan just tracked (`None` for the first), whether that scan was
     /// observed (`ok`, every direction, not a corner pose), and its stamp (seconds).
     pub(super) fn record(&mut self, step: Option<Pose2>, observed: bool, stamp_s: Option<f64>) {
-        self.last_gap_scale = Some(self.gap_scale(stamp_s));
+        self.last_gap_scale = Some(self.gap_ratio(stamp_s));
         let dt = match (self.last_stamp_s, stamp_s) {
             (Some(a), Some(b)) if b > a => Some(b - a),
             _ => None,
@@ -187,10 +195,16 @@ impl ObservedSpeed {
 
     /// How many scans' worth of time the step to a scan stamped `stamp_s` spans: its time step
     /// over the typical one when that is at least [`GAP_ABOVE_TYPICAL`] (at most
-    /// [`GAP_SCALE_MAX`]) and the stamps keep time (the last [`TYPICAL_DT_STEPS`] stamps
+    /// [`GAP_SCALE_MAX`]) and the stamps keep time (the last [`TYPICAL_DT_STEPS`] time steps
     /// increased, and at most [`IRREGULAR_STEPS_AT_MOST`] of those time steps lie outside half
     /// to twice the typical one); otherwise 1.
     pub(super) fn gap_scale(&self, stamp_s: Option<f64>) -> f64 {
+        self.gap_ratio(stamp_s).min(GAP_SCALE_MAX)
+    }
+
+    /// [`ObservedSpeed::gap_scale`] before its cap: how many typical time steps a gap spans (1
+    /// when the step is no gap, or the stamps do not keep time).
+    fn gap_ratio(&self, stamp_s: Option<f64>) -> f64 {
         let (Some(a), Some(b)) = (self.last_stamp_s, stamp_s) else {
             return 1.0;
         };
@@ -205,14 +219,22 @@ impl ObservedSpeed {
             .count();
         let ratio = (b - a) / typical;
         match irregular <= IRREGULAR_STEPS_AT_MOST && ratio >= GAP_ABOVE_TYPICAL {
-            true => ratio.min(GAP_SCALE_MAX),
+            true => ratio,
             false => 1.0,
         }
     }
 
-    /// [`ObservedSpeed::gap_scale`] of the last step recorded: 1 before any.
+    /// How many typical time steps the last step recorded spans (the gap's whole time, not
+    /// capped: the step covered all of it): 1 before any, and for a step that was no gap.
     pub(super) fn last_gap_scale(&self) -> f64 {
         self.last_gap_scale.unwrap_or(1.0)
+    }
+
+    /// The constant-velocity step to a scan stamped `stamp_s`, robot frame of the last scan:
+    /// the last `step` per scan (divided by the gap it spanned), times this scan's
+    /// [`ObservedSpeed::gap_scale`].
+    pub(super) fn predicted_step(&self, step: &Pose2, stamp_s: Option<f64>) -> Pose2 {
+        scaled(step, self.gap_scale(stamp_s) / self.last_gap_scale())
     }
 
     /// The median of the recent time steps, once there are a third of the ring.
@@ -293,17 +315,32 @@ mod tests {
         // The step just recorded spanned a gap: the next prediction divides it back.
         speed.record(step, true, Some(last + 0.5));
         assert!((speed.last_gap_scale() - 5.0).abs() < 1e-9);
-        // A stamp going back: no gap until the stamps have kept time for a ring's worth.
-        let mut t = last + 0.5;
-        speed.record(step, true, Some(t - 1.0));
-        for _ in 0..TYPICAL_DT_STEPS - 1 {
+        // A stamp going back 1 s in an otherwise regular log: the next stamp, 1.1 s after it,
+        // is no gap (the ring itself stays regular: only the count of steps in time says so),
+        // nor is any until the stamps have kept time for a ring's worth again.
+        let mut regular = ObservedSpeed::default();
+        let mut t = 0.0;
+        for _ in 0..=TYPICAL_DT_STEPS {
             t += 0.1;
-            speed.record(step, true, Some(t));
-            assert_eq!(speed.gap_scale(Some(t + 0.5)), 1.0);
+            regular.record(step, true, Some(t));
         }
+        regular.record(step, true, Some(t - 1.0));
         t += 0.1;
-        speed.record(step, true, Some(t));
-        assert!(speed.gap_scale(Some(t + 0.5)) > 4.0);
+        assert_eq!(regular.gap_scale(Some(t)), 1.0);
+        regular.record(step, true, Some(t));
+        for _ in 0..TYPICAL_DT_STEPS - 1 {
+            assert_eq!(regular.gap_scale(Some(t + 0.5)), 1.0);
+            t += 0.1;
+            regular.record(step, true, Some(t));
+        }
+        assert!((regular.gap_scale(Some(t + 0.5)) - 5.0).abs() < 1e-6);
+        // A gap over the cap: the prediction spans at most the cap, and the next one divides
+        // the step by the whole gap it spanned (not by the cap).
+        assert_eq!(regular.gap_scale(Some(t + 5.0)), GAP_SCALE_MAX);
+        regular.record(step, true, Some(t + 5.0));
+        assert!((regular.last_gap_scale() - 50.0).abs() < 1e-6);
+        let after = regular.predicted_step(&Pose2::new(5.0, 0.0, 0.0), Some(t + 5.1));
+        assert!((after.x_m - 0.1).abs() < 1e-6, "{after:?}");
         // Uneven time steps (more than one of the ring off by over twice): no gap.
         let mut uneven = ObservedSpeed::default();
         let mut t = 0.0;
