@@ -712,13 +712,7 @@ fn a_gap_in_the_log_is_warned() {
     fs::write(&log, gapped).unwrap();
     let run = |log: &Path, name: &str| {
         let out = dir.path().join(name);
-        let o = polymap(&[
-            "map",
-            log.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "-q",
-        ]);
+        let o = crate::support::map_quietly(log, &out, &[]);
         assert!(o.status.success(), "{}", text(&o));
         let summary: serde_json::Value =
             serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
