@@ -138,7 +138,7 @@ pub const UNOBSERVED_SEED_STEP_M: f64 = 0.25;
 pub const PRIOR_OVER_WEAK_M: f64 = 0.1;
 
 /// A pose ICP observed only weakly along an axis, moved from the anchor along it by less than
-/// this share of the longest recent step, counts as stopped ([`Tracker::icp`]).
+/// this share of the longest recent step, counts as stopped (`Tracker::icp`).
 pub const STOPPED_BELOW_SHARE_OF_STEP: f64 = 0.5;
 
 /// The recovery searches positions within this distance of the anchor (each axis), metres.
