@@ -96,6 +96,10 @@ pub struct TrackInput<'a> {
     pub unobserved_to: Pose2,
     /// The pose of the last scan tracked `ok`, map frame (the guess when there is none).
     pub reference: Pose2,
+    /// Where ICP also starts after a lost scan, map frame: [`TrackInput::reference`], with the
+    /// odometry prior moved by the odometry since that scan (the lost scans' poses, which the
+    /// guess builds on, are poor fits; the bare last `ok` pose lies where the robot was).
+    pub restart: Pose2,
     /// Seconds since that scan, when both stamps are known and increase.
     pub dt_s: Option<f64>,
     /// The constant-velocity prediction (the last pose moved by the last scan-to-scan motion),
@@ -751,9 +755,9 @@ impl Tracker<'_> {
         // point-to-segment ICP: `--preset paper` stays as it was, as in `within_reach`).
         if params.method == AlignMethod::PointToSegment
             && input.lost_streak > 0
-            && !starts.contains(&input.reference)
+            && !starts.contains(&input.restart)
         {
-            starts.push(input.reference);
+            starts.push(input.restart);
         }
         let searched = rotation_search(self.points, input.map, guess, params);
         if searched != guess {
@@ -921,6 +925,7 @@ mod tests {
             anchor: guess,
             unobserved_to: guess,
             reference: guess,
+            restart: guess,
             dt_s: None,
             constant_velocity: None,
             recent: &recent,
@@ -1096,6 +1101,7 @@ mod tests {
                 anchor,
                 unobserved_to: anchor,
                 reference: anchor,
+                restart: anchor,
                 ..*t.input
             };
             let config = TrackConfig {
@@ -1273,6 +1279,7 @@ mod tests {
             with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
                 let input = TrackInput {
                     reference: last_ok,
+                    restart: last_ok,
                     ..*t.input
                 };
                 let (result, verdict) = track_scan(&input, t.config);
@@ -1446,6 +1453,33 @@ mod tests {
             "{from_cv:?}"
         );
         assert_near(&truth, &(found, Tracking::default()));
+    }
+
+    #[test]
+    fn after_a_lost_scan_icp_restarts_from_the_restart_pose() {
+        // With odometry the restart is the last `ok` pose moved by odometry since then (ACES
+        // with odometry, scan 4068: the bare last `ok` pose, four scans back, won as `ok`,
+        // 0.8 m behind the robot); it is a start, the bare pose is not.
+        let (truth, guess, cv) = stalled_wheel();
+        let (align, tracking) = (AlignParams::default(), TrackParams::default());
+        let (reference, restart) = (Pose2::new(3.0, 3.0, 0.0), Pose2::new(3.6, 3.0, 0.0));
+        let starts = with_odometry_tracker((truth, guess, cv), &align, &tracking, |t| {
+            let input = TrackInput {
+                lost_streak: 1,
+                reference,
+                restart,
+                ..*t.input
+            };
+            Tracker {
+                input: &input,
+                ..*t
+            }
+            .starts()
+        });
+        assert!(
+            starts.contains(&restart) && !starts.contains(&reference),
+            "{starts:?}"
+        );
     }
 
     #[test]

@@ -179,6 +179,8 @@ pub struct Mapper {
     last_odom: Option<Pose2>,
     /// The last scan tracked `ok`: its index (the map's numbering), pose and stamp.
     last_ok: Option<(u32, Pose2, Option<f64>)>,
+    /// The odometry pose of that scan (odometry frame), when it had one.
+    last_ok_odom: Option<Pose2>,
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
     loose: LoosePoints,
@@ -274,6 +276,7 @@ impl Mapper {
             observed: ObservedSpeed::default(),
             last_odom: None,
             last_ok: None,
+            last_ok_odom: None,
             loops: LoopCloser::new(
                 config.loops.clone(),
                 config.align.clone(),
@@ -533,6 +536,7 @@ impl Mapper {
             self.last_odom = scan.odom_from_robot;
             if tracking.verdict == Verdict::Ok {
                 self.last_ok = Some((t, pose, scan.stamp_s));
+                self.last_ok_odom = scan.odom_from_robot;
             }
         }
         self.verdicts.count(i, tracking.verdict, tracking.reason);

@@ -76,6 +76,15 @@ impl Mapper {
         unobserved_to: Pose2,
     ) -> (Option<AlignResult>, Tracking) {
         let (reference, dt_s) = reach_reference(self.last_ok, scan.stamp_s, guess);
+        // With odometry, ICP restarts after a lost scan from the last `ok` pose moved by the
+        // odometry since then.
+        let odometry = self.config.mapper.motion_prior == MotionPrior::Odometry;
+        let last_ok = self.last_ok.map(|(_, pose, _)| pose);
+        let restart = match odometry {
+            true => moved_by_odometry(last_ok, self.last_ok_odom, scan.odom_from_robot),
+            false => None,
+        }
+        .unwrap_or(reference);
         // As in `guess` (the odometry check compares odometry, which spans a gap, with it).
         let constant_velocity = match (self.prev_pose, self.last_pose) {
             (Some(prev), Some(last)) => Some(
@@ -96,6 +105,7 @@ impl Mapper {
             anchor,
             unobserved_to,
             reference,
+            restart,
             dt_s,
             constant_velocity,
             recent: &self.recent,
@@ -249,6 +259,12 @@ impl ObservedSpeed {
     }
 }
 
+/// The last `ok` pose `ok` (map frame) moved by the odometry from that scan's odometry pose
+/// `then` to this scan's `now` (odometry frame); `None` when any is unknown.
+fn moved_by_odometry(ok: Option<Pose2>, then: Option<Pose2>, now: Option<Pose2>) -> Option<Pose2> {
+    Some(ok?.compose(&then?.between(&now?)))
+}
+
 /// The pose a scan's motion is bounded from, and the seconds since it: the last `ok` pose is
 /// where the robot was for sure, and the time since then bounds how far it can be now, when
 /// the stamps say it (both known, increasing); otherwise `fallback` and no bound.
@@ -349,6 +365,18 @@ mod tests {
             uneven.record(step, true, Some(t));
         }
         assert_eq!(uneven.gap_scale(Some(t + 1.0)), 1.0);
+    }
+
+    #[test]
+    fn after_a_lost_scan_odometry_moves_the_last_ok_pose() {
+        let ok = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+        let then = Pose2::new(10.0, 0.0, 0.0);
+        // Odometry says 0.5 m ahead since that scan: ahead of the robot, which faces +y.
+        let now = Pose2::new(10.5, 0.0, 0.0);
+        let moved = moved_by_odometry(Some(ok), Some(then), Some(now)).unwrap();
+        assert!((moved.x_m - 1.0).abs() < 1e-12 && (moved.y_m - 2.5).abs() < 1e-12);
+        assert_eq!(moved_by_odometry(Some(ok), None, Some(now)), None);
+        assert_eq!(moved_by_odometry(None, Some(then), Some(now)), None);
     }
 
     #[test]
