@@ -9,7 +9,8 @@
 //!    constant-velocity guess is wrong when a turn starts, stops or reverses); with the
 //!    odometry prior, the constant-velocity guess when it disagrees with odometry
 //!    (`tracking.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn); after a lost
-//!    scan (a poor fit, which the guess and anchor come from), the last `ok` pose; the best coarse
+//!    scan (a poor fit, which the guess and anchor come from), the last `ok` pose (with the
+//!    odometry prior moved by the odometry since then, [`TrackInput::restart`]); the best coarse
 //!    rotation ([`rotation_search`]) when the robot turned faster than ICP's basin. With
 //!    `mapper.icp_from_best_start_only`, ICP runs only from the start with the best soft
 //!    inlier score (the first start kept unless beaten by `mapper.start_score_margin`);
@@ -751,8 +752,9 @@ impl Tracker<'_> {
         if let Some(cv) = self.odometry_disagrees() {
             starts.push(cv);
         }
-        // After a lost scan, whose pose is a poor fit, also from the last `ok` pose (with
-        // point-to-segment ICP: `--preset paper` stays as it was, as in `within_reach`).
+        // After a lost scan, whose pose is a poor fit, also from the last `ok` pose, with
+        // odometry moved by it since then (with point-to-segment ICP: `--preset paper` stays
+        // as it was, as in `within_reach`).
         if params.method == AlignMethod::PointToSegment
             && input.lost_streak > 0
             && !starts.contains(&input.restart)
