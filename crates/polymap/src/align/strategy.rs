@@ -25,11 +25,12 @@
 //! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
 //!    [`search_window`] (where ICP fits poorly, as wide as the recent motion, and with the
 //!    odometry prior towards the constant-velocity guess where odometry disagrees with it: its
-//!    heading always, its position up to `tracking.max_window_m`),
-//!    or the whole map every `tracking.relocalize_every_lost` scans lost in a row; ICP from its best pose replaces ICP from the starts only with
-//!    `tracking.search_win_margin` more inliers (plus two). Without odometry, a pose ICP put
-//!    on its fallback (`TrackInput::unobserved_to`: the previous pose, or moved by the last
-//!    observed motion) along a direction it could not observe is searched too, and the search's
+//!    heading always, its position up to `tracking.max_window_m`), or the whole map every
+//!    `tracking.relocalize_every_lost` scans lost in a row; ICP from its best pose replaces
+//!    ICP from the starts only with `tracking.search_win_margin` more inliers (plus two).
+//!    Without odometry, a pose ICP put on its fallback (`TrackInput::unobserved_to`: the
+//!    previous pose, or moved by the last observed motion) along a direction it could not
+//!    observe is searched too, and the search's
 //!    pose wins when ICP from it observes every direction with at least as many inliers
 //!    (`tracking.search_unobserved`: evidence against none); when it does not, ICP from
 //!    poses along that direction up to `tracking.unobserved_reach_m` either side may win by
@@ -737,8 +738,9 @@ impl Tracker<'_> {
     /// Where ICP may start, before [`MapperParams::icp_from_best_start_only`] picks one: the
     /// guess; the anchor when they differ (a constant-velocity guess is wrong when a turn
     /// starts, stops or reverses); the constant-velocity guess where odometry disagrees with
-    /// it; the last `ok` pose after a lost scan; the
-    /// best coarse rotation around the guess when the robot turned faster than ICP's basin.
+    /// it; after a lost scan the last `ok` pose ([`TrackInput::restart`]: with odometry, moved
+    /// by it since then); the best coarse rotation around the guess when the robot turned
+    /// faster than ICP's basin.
     fn starts(&self) -> Vec<Pose2> {
         let (input, params, policy) = (self.input, self.config.align, self.config.starts);
         let (guess, anchor) = (input.guess, input.anchor);

@@ -38,10 +38,9 @@ impl Mapper {
         match prior {
             MotionPrior::Previous => (last, last, last),
             MotionPrior::ConstantVelocity => {
-                let Some(prev) = self.prev_pose else {
+                let Some(v) = self.constant_velocity_step(stamp_s) else {
                     return (last, last, last);
                 };
-                let v = self.observed.predicted_step(&prev.between(&last), stamp_s);
                 let predicted = last.compose(&v);
                 match self.observed.motion() {
                     Some(m) if self.config.mapper.keep_observed_velocity => {
@@ -66,6 +65,14 @@ impl Mapper {
         }
     }
 
+    /// The constant-velocity step from the last pose to a scan stamped `stamp_s` (robot frame
+    /// of the last scan; over a gap's time, [`ObservedSpeed::predicted_step`]), once there are
+    /// two poses.
+    fn constant_velocity_step(&self, stamp_s: Option<f64>) -> Option<Pose2> {
+        let (prev, last) = (self.prev_pose?, self.last_pose?);
+        Some(self.observed.predicted_step(&prev.between(&last), stamp_s))
+    }
+
     /// The pose of the scan and the verdict on it, from [`crate::align::track_scan`] with the
     /// mapper's state; the pose is `None` when there is nothing to align to.
     pub(super) fn align(
@@ -86,16 +93,10 @@ impl Mapper {
         }
         .unwrap_or(reference);
         // As in `guess` (the odometry check compares odometry, which spans a gap, with it).
-        let constant_velocity = match (self.prev_pose, self.last_pose) {
-            (Some(prev), Some(last)) => Some(
-                last.compose(
-                    &self
-                        .observed
-                        .predicted_step(&prev.between(&last), scan.stamp_s),
-                ),
-            ),
-            _ => None,
-        };
+        let constant_velocity = self
+            .last_pose
+            .zip(self.constant_velocity_step(scan.stamp_s))
+            .map(|(last, v)| last.compose(&v));
         let input = TrackInput {
             points_in_robot: &scan.points_in_robot,
             segments_in_robot: &scan.segments_in_robot,
@@ -132,17 +133,14 @@ const GAP_ABOVE_TYPICAL: f64 = 3.0;
 const GAP_SCALE_MAX: f64 = 20.0;
 
 /// Stamps keep time when the last [`TYPICAL_DT_STEPS`] time steps increased and at most this
-/// many of them lie outside half to twice the typical one (a gap just before allowed): a log whose laser stamps bunch and stall (Intel's:
-/// 1 % of its windows of 15 are regular, and its step per scan is the same whatever the time
-/// step) is not timed by them.
+/// many of them lie outside half to twice the typical one (a gap just before allowed): a log
+/// whose laser stamps bunch and stall (Intel's: 1 % of its windows of 15 are regular, and its
+/// step per scan is the same whatever the time step) is not timed by them.
 const IRREGULAR_STEPS_AT_MOST: usize = 1;
 
 /// A motion step `m` (robot frame) times `k`: translation and turn scaled alike (a straight
 /// extrapolation, close to the arc for the turns of a few scans).
 fn scaled(m: &Pose2, k: f64) -> Pose2 {
-    if k == 1.0 {
-        return *m;
-    }
     Pose2::new(m.x_m * k, m.y_m * k, m.theta_rad * k)
 }
 
@@ -218,7 +216,8 @@ impl ObservedSpeed {
         let (Some(a), Some(b)) = (self.last_stamp_s, stamp_s) else {
             return 1.0;
         };
-        let timed = self.filled == TYPICAL_DT_STEPS && self.in_time >= TYPICAL_DT_STEPS;
+        // Every step in time pushed a time step: the ring is full.
+        let timed = self.in_time >= TYPICAL_DT_STEPS;
         let Some(typical) = self.typical_dt_s().filter(|_| timed) else {
             return 1.0;
         };
