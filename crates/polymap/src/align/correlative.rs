@@ -7,14 +7,19 @@
 //! each rotation the points fall on cells, and a translation by whole cells only shifts them,
 //! so every candidate's score is a sum of lookups. Branch and bound covers the translations
 //! with square blocks of `2^h` cells whose bound is the sum, per point, of the raster's maximum
-//! over the block (precomputed once per raster for each `h`); a block is opened only while its
-//! bound beats the best score found. Since floating-point addition is monotone, a bound is
-//! never below any score it covers, so the answer is the best candidate of the window,
-//! exactly: the same score a brute-force scan of all candidates finds. ICP refines it below
-//! the cell size.
+//! over the block (precomputed once per raster for each `h`). Blocks are opened best bound
+//! first (a priority queue over every rotation's blocks): the first single pose taken from the
+//! queue scores at least every bound left in it. Since floating-point addition is monotone, a
+//! bound is never below any score it covers, so the answer is the best candidate of the window,
+//! exactly: the same score a brute-force scan of all candidates finds. Best first opens only
+//! blocks whose bound reaches the best score (a depth-first search also opens those that beat
+//! only the best found so far), and the queue left behind is where the search for a rival, the
+//! best pose apart from the best, goes on. ICP refines the answer below the cell size.
 
 use super::raster::ScoreRaster;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
 
 /// Highest block level: blocks of up to `2^6 = 64` cells a side.
 const MAX_LEVEL: u32 = 6;
@@ -125,13 +130,97 @@ struct Block {
     bound: f32,
 }
 
-/// Where a search stops.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Until {
-    /// At the best pose: the search is exact.
-    Best,
-    /// At the first pose that reaches the score asked for (to know whether there is one).
-    First,
+/// A block waiting to be opened, compact (a frontier holds thousands), ordered by `key`: its
+/// bound's bits in an order-preserving form; at equal bounds the higher level first (a block
+/// may hold a pose as good as one already queued), then the pose nearer the window's centre
+/// (among poses scoring alike, the one the prediction favours, whatever the order of the
+/// search).
+#[derive(Debug, Clone, Copy)]
+struct Queued {
+    key: u64,
+    rotation: u32,
+    ix: i32,
+    iy: i32,
+}
+
+/// Bits of [`Queued::key`] below the bound's and the level's: the nearness to the centre.
+const NEAR_BITS: u32 = 24;
+
+impl Queued {
+    /// `b` queued, for a window of `rotations` rotations.
+    fn of(b: &Block, rotations: usize) -> Self {
+        // Finite and infinite floats ordered as `total_cmp` orders them.
+        let bits = b.bound.to_bits();
+        let ordered = match bits >> 31 {
+            1 => !bits,
+            _ => bits | 1 << 31,
+        };
+        let turn = b.rotation.abs_diff(rotations / 2) as u64;
+        let off = turn + b.ix.unsigned_abs() + b.iy.unsigned_abs();
+        let near = (1u64 << NEAR_BITS) - 1 - off.min((1 << NEAR_BITS) - 1);
+        Queued {
+            key: (ordered as u64) << 32 | (b.level as u64) << NEAR_BITS | near,
+            rotation: b.rotation as u32,
+            ix: b.ix as i32,
+            iy: b.iy as i32,
+        }
+    }
+
+    fn block(&self) -> Block {
+        let bits = (self.key >> 32) as u32;
+        let bits = match bits >> 31 {
+            1 => bits & !(1 << 31),
+            _ => !bits,
+        };
+        Block {
+            rotation: self.rotation as usize,
+            ix: self.ix as i64,
+            iy: self.iy as i64,
+            level: ((self.key >> NEAR_BITS) & 0xff) as u32,
+            bound: f32::from_bits(bits),
+        }
+    }
+}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.key.cmp(&other.key)
+    }
+}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for Queued {
+    fn eq(&self, other: &Self) -> bool {
+        self.key == other.key
+    }
+}
+
+impl Eq for Queued {}
+
+/// The blocks of a search not opened yet, best bound first; only blocks whose bound reaches
+/// `keep` (a sum of raster values) are queued: no search from this queue asks for less.
+#[derive(Debug, Clone, Default)]
+struct Frontier {
+    queue: BinaryHeap<Queued>,
+    keep: f32,
+}
+
+impl Frontier {
+    /// The queue of `blocks` (a window's top blocks, of `rotations` rotations) reaching
+    /// `keep`.
+    fn of(blocks: &[Block], rotations: usize, keep: f32) -> Self {
+        let queue = blocks
+            .iter()
+            .filter(|b| b.bound >= keep)
+            .map(|b| Queued::of(b, rotations))
+            .collect();
+        Frontier { queue, keep }
+    }
 }
 
 /// The best pose of a window search ([`CorrelativeMatcher::window_best`]), with what a search
@@ -142,11 +231,14 @@ pub struct WindowBest {
     pub best: Candidate,
     window: SearchWindow,
     prepared: Option<Prepared>,
-    /// The leaves that were the best so far before a better one, with their sums.
-    passed: Vec<(f32, Block)>,
+    /// The blocks the search for the best left unopened: where the search for its rival goes
+    /// on.
+    frontier: Frontier,
+    /// The share of the best's score a rival must reach.
+    rival_above: f64,
 }
 
-/// One window prepared for one set of points: its rotations and its top blocks, best first.
+/// One window prepared for one set of points: its rotations and its top blocks.
 #[derive(Debug, Clone)]
 struct Prepared {
     rotations: Rotations,
@@ -267,38 +359,43 @@ impl CorrelativeMatcher {
         exclusions: &[Exclusion],
     ) -> Option<Candidate> {
         let prepared = self.prepare(points_in_robot, window)?;
-        let found = self.search(&prepared, window, min_score, exclusions, Until::Best, None);
+        let floor = prepared.floor(min_score);
+        let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
+        let found = prepared
+            .context(self, window, exclusions)
+            .next(&mut frontier, floor);
         found.map(|leaf| prepared.candidate(self, window, leaf))
     }
 
     /// The best pose of `window` for `points_in_robot` (robot frame) scoring at least
     /// `min_score`, or else `seed` (a pose scored by the caller on the same raster), kept with
-    /// what [`CorrelativeMatcher::rival`] needs to search the same window again; `None` when
-    /// there is neither a pose nor a seed.
+    /// what [`CorrelativeMatcher::rival`] needs to search on for a pose scoring at least
+    /// `rival_above` times the best's score; `None` when there is neither a pose nor a seed.
     pub fn window_best(
         &self,
         points_in_robot: &[Vec2],
         window: &SearchWindow,
         min_score: f64,
         seed: Option<Candidate>,
+        rival_above: f64,
     ) -> Option<WindowBest> {
         let Some(prepared) = self.prepare(points_in_robot, window) else {
             return seed.map(|best| WindowBest {
                 best,
                 window: *window,
                 prepared: None,
-                passed: Vec::new(),
+                frontier: Frontier::default(),
+                rival_above,
             });
         };
-        let mut passed = Vec::new();
-        let found = self.search(
-            &prepared,
-            window,
-            min_score,
-            &[],
-            Until::Best,
-            Some(&mut passed),
-        );
+        // The best scores at least `min_score` (or is the seed, which may score less: its
+        // rival is then searched afresh), so its rival at least `rival_above` of that.
+        let floor = prepared.floor(min_score);
+        let keep = prepared.floor(rival_above.min(1.0) * min_score);
+        let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), keep);
+        let found = prepared
+            .context(self, window, &[])
+            .next(&mut frontier, floor);
         let best = found
             .map(|leaf| prepared.candidate(self, window, leaf))
             .or(seed)?;
@@ -306,23 +403,16 @@ impl CorrelativeMatcher {
             best,
             window: *window,
             prepared: Some(prepared),
-            passed,
+            frontier,
+            rival_above,
         })
     }
 
-    /// A rival of `found` (from [`CorrelativeMatcher::window_best`] on this matcher): a pose
-    /// of its window more than `apart_m` or `apart_rad` from its best (see [`Exclusion`])
-    /// scoring at least `rival_above` times the best's score. With [`Until::Best`] the best
-    /// such pose; with [`Until::First`], the first one found, which only says that there is
-    /// one (cheaper: the search stops there, and the poses the search for the best passed over
-    /// on its way are checked first).
-    pub fn rival(
-        &self,
-        found: &WindowBest,
-        rival_above: f64,
-        (apart_m, apart_rad): (f64, f64),
-        until: Until,
-    ) -> Option<Candidate> {
+    /// The rival of `found` (from [`CorrelativeMatcher::window_best`] on this matcher): the
+    /// best pose of its window more than `apart_m` or `apart_rad` from its best (see
+    /// [`Exclusion`]) scoring at least `rival_above` (given to `window_best`) times the best's
+    /// score. The search goes on from the blocks the search for the best left unopened.
+    pub fn rival(&self, found: &WindowBest, (apart_m, apart_rad): (f64, f64)) -> Option<Candidate> {
         let prepared = found.prepared.as_ref()?;
         let window = &found.window;
         let exclusion = [Exclusion {
@@ -330,20 +420,15 @@ impl CorrelativeMatcher {
             radius_m: apart_m,
             radius_rad: apart_rad,
         }];
-        let rival_min = rival_above * found.best.score;
-        if until == Until::First {
-            // The same test the rival's search applies to each pose it reaches.
-            let floor = prepared.floor(rival_min);
-            let ctx = prepared.context(self, window, &exclusion);
-            if let Some(&leaf) = found
-                .passed
-                .iter()
-                .find(|(sum, b)| *sum >= floor && !ctx.excluded(b, false))
-            {
-                return Some(prepared.candidate(self, window, leaf));
-            }
-        }
-        self.search(prepared, window, rival_min, &exclusion, until, None)
+        let floor = prepared.floor(found.rival_above * found.best.score);
+        let mut frontier = match floor >= found.frontier.keep {
+            true => found.frontier.clone(),
+            // A seed scoring under the floor of the search for the best.
+            false => Frontier::of(&prepared.blocks, prepared.rotations.len(), floor),
+        };
+        prepared
+            .context(self, window, &exclusion)
+            .next(&mut frontier, floor)
             .map(|leaf| prepared.candidate(self, window, leaf))
     }
 
@@ -370,37 +455,12 @@ impl CorrelativeMatcher {
                 ix += 1 << top;
             }
         }
-        blocks.sort_by(|a, b| b.bound.total_cmp(&a.bound));
         Some(Prepared {
             rotations,
             reach,
             blocks,
             points: n,
         })
-    }
-
-    /// Branch and bound from `prepared`'s top blocks: the best pose outside `exclusions`
-    /// scoring at least `min_score` (or the first found, [`Until::First`]), as its sum and
-    /// leaf block. `passed` collects the leaves that were the best so far before a better one.
-    fn search(
-        &self,
-        prepared: &Prepared,
-        window: &SearchWindow,
-        min_score: f64,
-        exclusions: &[Exclusion],
-        until: Until,
-        mut passed: Option<&mut Vec<(f32, Block)>>,
-    ) -> Option<(f32, Block)> {
-        let ctx = prepared.context(self, window, exclusions);
-        let floor = prepared.floor(min_score);
-        let mut best: Option<(f32, Block)> = None;
-        for b in &prepared.blocks {
-            if until == Until::First && best.is_some() {
-                break;
-            }
-            ctx.descend(*b, floor, until, &mut best, &mut passed);
-        }
-        best
     }
 
     /// Up to `max` best poses of `window`, each apart from the ones before by `apart_m` or
@@ -418,11 +478,14 @@ impl CorrelativeMatcher {
         let Some(prepared) = self.prepare(points_in_robot, window) else {
             return found;
         };
+        // Each peak is the best pose outside the ones before: the search goes on from the
+        // same queue (a block left out by an exclusion stays out: exclusions only grow).
+        let floor = prepared.floor(min_score);
+        let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
         let mut exclusions = Vec::new();
         while found.len() < max {
-            let Some(leaf) =
-                self.search(&prepared, window, min_score, &exclusions, Until::Best, None)
-            else {
+            let ctx = prepared.context(self, window, &exclusions);
+            let Some(leaf) = ctx.next(&mut frontier, floor) else {
                 break;
             };
             let c = prepared.candidate(self, window, leaf);
@@ -436,11 +499,13 @@ impl CorrelativeMatcher {
         found
     }
 
-    /// The best candidate by scoring every one (the oracle of [`CorrelativeMatcher::best`]).
+    /// The best candidate outside every exclusion by scoring every one (the oracle of
+    /// [`CorrelativeMatcher::best`] and [`CorrelativeMatcher::rival`]).
     pub fn best_brute_force(
         &self,
         points_in_robot: &[Vec2],
         window: &SearchWindow,
+        exclusions: &[Exclusion],
     ) -> Option<Candidate> {
         let n = points_in_robot.len();
         if n == 0 || self.raster.size().0 == 0 {
@@ -453,14 +518,14 @@ impl CorrelativeMatcher {
             rotations: &rotations,
             window,
             reach,
-            exclusions: &[],
+            exclusions,
         };
         let mut best: Option<(f32, Block)> = None;
         for r in 0..rotations.len() {
             for ix in -reach..=reach {
                 for iy in -reach..=reach {
                     let b = self.block(&rotations, r, ix, iy, 0);
-                    if best.is_none_or(|(s, _)| b.bound > s) {
+                    if best.is_none_or(|(s, _)| b.bound > s) && !ctx.excluded(&b) {
                         best = Some((b.bound, b));
                     }
                 }
@@ -608,57 +673,40 @@ struct Search<'a> {
 }
 
 impl Search<'_> {
-    /// Opens `b` while its bound beats the best so far (and `floor`); with [`Until::First`]
-    /// only until a pose is found. A best pose displaced by a better one goes to `passed`.
-    fn descend(
-        &self,
-        b: Block,
-        floor: f32,
-        until: Until,
-        best: &mut Option<(f32, Block)>,
-        passed: &mut Option<&mut Vec<(f32, Block)>>,
-    ) {
-        if until == Until::First && best.is_some() {
-            return;
-        }
-        let to_beat = best.map_or(floor, |(s, _)| s);
-        let beats = if best.is_some() {
-            b.bound > to_beat
-        } else {
-            b.bound >= to_beat
-        };
-        if !beats || self.excluded(&b, true) {
-            return;
-        }
-        if b.level == 0 {
-            if !self.excluded(&b, false)
-                && let Some(before) = best.replace((b.bound, b))
-                && let Some(passed) = passed
-            {
-                passed.push(before);
+    /// The best pose left in `frontier` outside the exclusions and reaching `floor` (a sum of
+    /// raster values), as its sum and leaf block: blocks are opened best bound first, so the
+    /// first pose taken scores at least every bound left. Opened and excluded blocks leave the
+    /// queue; children reaching the queue's `keep` join it.
+    fn next(&self, frontier: &mut Frontier, floor: f32) -> Option<(f32, Block)> {
+        while let Some(b) = frontier.queue.peek().map(Queued::block) {
+            if b.bound < floor {
+                return None;
             }
-            return;
-        }
-        let size = 1i64 << (b.level - 1);
-        let mut children = [None; 4];
-        let mut n = 0;
-        for (dx, dy) in [(0, 0), (size, 0), (0, size), (size, size)] {
-            let (ix, iy) = (b.ix + dx, b.iy + dy);
-            if ix <= self.reach && iy <= self.reach {
-                children[n] =
-                    Some(
-                        self.matcher
-                            .block(self.rotations, b.rotation, ix, iy, b.level - 1),
-                    );
-                n += 1;
+            frontier.queue.pop();
+            // A whole block inside an exclusion holds nothing to find (for a single pose, the
+            // pose itself).
+            if self.excluded(&b) {
+                continue;
+            }
+            if b.level == 0 {
+                return Some((b.bound, b));
+            }
+            let size = 1i64 << (b.level - 1);
+            for (dx, dy) in [(0, 0), (size, 0), (0, size), (size, size)] {
+                let (ix, iy) = (b.ix + dx, b.iy + dy);
+                if ix <= self.reach && iy <= self.reach {
+                    let child = self
+                        .matcher
+                        .block(self.rotations, b.rotation, ix, iy, b.level - 1);
+                    if child.bound >= frontier.keep {
+                        frontier
+                            .queue
+                            .push(Queued::of(&child, self.rotations.len()));
+                    }
+                }
             }
         }
-        let children = &mut children[..n];
-        let bound = |c: &Option<Block>| c.map_or(f32::NEG_INFINITY, |c| c.bound);
-        children.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
-        for c in children.iter().flatten() {
-            self.descend(*c, floor, until, best, passed);
-        }
+        None
     }
 
     /// The pose of a block's lowest offset.
@@ -672,18 +720,14 @@ impl Search<'_> {
         )
     }
 
-    /// Whether the block lies wholly (`whole`) or its lowest offset lies (`!whole`) inside an
-    /// exclusion.
-    fn excluded(&self, b: &Block, whole: bool) -> bool {
+    /// Whether the block lies wholly inside an exclusion (its four corner offsets do: the
+    /// exclusion's disc is convex).
+    fn excluded(&self, b: &Block) -> bool {
         if self.exclusions.is_empty() {
             return false;
         }
         let cell = self.matcher.raster.cell_m();
-        let span = if whole {
-            ((1i64 << b.level) - 1) as f64 * cell
-        } else {
-            0.0
-        };
+        let span = ((1i64 << b.level) - 1) as f64 * cell;
         let p = self.pose(*b);
         self.exclusions.iter().any(|e| {
             let turned = normalize_angle_rad(p.theta_rad - e.center.theta_rad).abs();
@@ -806,7 +850,7 @@ mod tests {
                 half_theta_rad: f64::to_radians(half_deg),
             };
             let fast = matcher.best(&points, &window, 0.0, &[]).unwrap();
-            let slow = matcher.best_brute_force(&points, &window).unwrap();
+            let slow = matcher.best_brute_force(&points, &window, &[]).unwrap();
             assert_eq!(fast.score, slow.score, "window {window:?}");
         }
         let window = SearchWindow {
@@ -834,35 +878,42 @@ mod tests {
     }
 
     #[test]
-    fn any_rival_is_found_exactly_when_the_best_rival_is() {
+    fn the_rival_is_the_best_pose_apart_from_the_best() {
         let (segs, pillar) = room();
         let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
         let points = scan_of(&segs, &pillar, Pose2::new(0.2, 0.1, 0.05));
         let window = SearchWindow {
             center: Pose2::IDENTITY,
-            half_xy_m: 1.0,
-            half_theta_rad: 0.8,
+            half_xy_m: 0.6,
+            half_theta_rad: 0.4,
         };
-        let apart = (0.5, 0.17);
+        let apart = (0.3, 0.1);
         let mut both_kinds = [false, false];
-        for rival_above in [0.1, 0.2, 0.3, 0.4, 0.5, 0.7, 0.9, 0.99] {
-            let rival_of = |until| {
-                let found = matcher.window_best(&points, &window, 0.0, None).unwrap();
-                let rival = matcher.rival(&found, rival_above, apart, until);
-                Some((found.best, rival))
-            };
-            let (exact, any) = (rival_of(Until::Best), rival_of(Until::First));
-            let ((best, exact), (same, any)) = (exact.unwrap(), any.unwrap());
+        for rival_above in [0.1, 0.3, 0.5, 0.7, 0.8, 0.9, 0.95, 0.99] {
+            let found = matcher
+                .window_best(&points, &window, 0.0, None, rival_above)
+                .unwrap();
+            let best = matcher.best_brute_force(&points, &window, &[]).unwrap();
+            assert_eq!(found.best.score, best.score);
+            let exclusion = [Exclusion {
+                center: found.best.map_from_robot,
+                radius_m: apart.0,
+                radius_rad: apart.1,
+            }];
+            // The search goes on from the queue the best's search left: the same score as
+            // scoring every pose apart from the best.
+            let rival = matcher.rival(&found, apart);
+            let brute = matcher
+                .best_brute_force(&points, &window, &exclusion)
+                .filter(|c| c.score >= rival_above * best.score - 1e-6);
             assert_eq!(
-                best, same,
-                "the best pose does not depend on the rival's search"
+                rival.map(|c| c.score),
+                brute.map(|c| c.score),
+                "{rival_above}"
             );
-            assert_eq!(exact.is_some(), any.is_some(), "above {rival_above}");
-            both_kinds[exact.is_some() as usize] = true;
-            if let (Some(e), Some(a)) = (exact, any) {
-                // The floor is rounded to f32: allow that rounding.
-                assert!(a.score >= rival_above * best.score - 1e-6 && a.score <= e.score);
-                let d = best.map_from_robot.between(&a.map_from_robot);
+            both_kinds[rival.is_some() as usize] = true;
+            if let Some(r) = rival {
+                let d = best.map_from_robot.between(&r.map_from_robot);
                 assert!(d.translation().length() > apart.0 || d.theta_rad.abs() > apart.1);
             }
         }
@@ -877,10 +928,20 @@ mod tests {
             score: 2.0,
         };
         let found = matcher
-            .window_best(&points, &window, 2.0, Some(seed))
+            .window_best(&points, &window, 2.0, Some(seed), 0.95)
             .unwrap();
-        let rival = matcher.rival(&found, 0.95, apart, Until::First);
-        assert_eq!((found.best, rival), (seed, None));
+        assert_eq!((found.best, matcher.rival(&found, apart)), (seed, None));
+        // A seed scoring under the search's floor (nothing reached it): its rival is searched
+        // afresh, down to its own floor.
+        let low = Candidate {
+            map_from_robot: Pose2::new(0.2, 0.1, 0.05),
+            score: 0.3,
+        };
+        let found = matcher
+            .window_best(&points, &window, 2.0, Some(low), 0.95)
+            .unwrap();
+        let rival = matcher.rival(&found, apart).expect("a pose above 0.3");
+        assert!(rival.score >= 0.95 * 0.3 - 1e-6, "{rival:?}");
     }
 
     /// A window centred far off a long, thin raster: cells whose flat index would overflow

@@ -42,7 +42,7 @@ use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::segment_index::NearestCertificate;
 pub use corner_seeds::corner_seeds;
-pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow, Until, WindowBest};
+pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow, WindowBest};
 pub use endpoints::align_endpoints;
 pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, map_bounds};
 pub use pair_search::{

@@ -68,7 +68,7 @@ use super::track::{
     WindowMatch, search_window, should_search, verdict, window_search,
 };
 use super::{
-    AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup, Until,
+    AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup,
     align_endpoints, align_points_and_loose, corner_seeds, fit_score, fit_score_above, map_bounds,
     rotation_search, score_sample, thin_points,
 };
@@ -853,7 +853,7 @@ impl Tracker<'_> {
         )?;
         best_of(
             std::iter::once(found.best)
-                .chain(found.rival(Until::Best)) // a second start
+                .chain(found.rival()) // a second start
                 .map(|c| self.run(near, c.map_from_robot)),
         )
     }

@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow, Until, WindowBest};
+use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow, WindowBest};
 use super::raster::ScoreRaster;
 use super::{AlignResult, score_sample_n};
 use crate::check::{Checks, InvalidParam};
@@ -570,8 +570,6 @@ pub struct WindowMatch {
     pub best: Candidate,
     matcher: CorrelativeMatcher,
     found: WindowBest,
-    /// Share of the best's score a rival must reach (`tracking.ambiguous_above`).
-    rival_above: f64,
     /// How far apart a rival is (`tracking.rival_apart_m`, `rival_apart_deg` in radians).
     apart: (f64, f64),
 }
@@ -580,14 +578,12 @@ impl WindowMatch {
     /// Whether a distinct pose (more than `rival_apart_m` or `rival_apart_deg` from the best)
     /// scores at least `ambiguous_above` of the best's score.
     pub fn ambiguous(&self) -> bool {
-        self.rival(Until::First).is_some()
+        self.rival().is_some()
     }
 
-    /// A distinct pose scoring at least `ambiguous_above` of the best's score: the best such
-    /// pose with [`Until::Best`], any with [`Until::First`] (cheaper).
-    pub fn rival(&self, until: Until) -> Option<Candidate> {
-        self.matcher
-            .rival(&self.found, self.rival_above, self.apart, until)
+    /// The best distinct pose scoring at least `ambiguous_above` of the best's score.
+    pub fn rival(&self) -> Option<Candidate> {
+        self.matcher.rival(&self.found, self.apart)
     }
 }
 
@@ -671,12 +667,11 @@ pub fn window_search(
     });
     let floor = seeded.map_or(MIN_SCORE, |c| c.score.max(MIN_SCORE));
     let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
-    let found = matcher.window_best(&sample, window, floor, seeded)?;
+    let found = matcher.window_best(&sample, window, floor, seeded, params.ambiguous_above)?;
     Some(WindowMatch {
         best: found.best,
         matcher,
         found,
-        rival_above: params.ambiguous_above,
         apart: (params.rival_apart_m, params.rival_apart_deg.to_radians()),
     })
 }
