@@ -27,6 +27,13 @@ const MAX_LEVEL: u32 = 6;
 /// Independent partial sums of a block's bound.
 const LANES: usize = 8;
 
+/// Most blocks a search's queue holds (24 bytes each: 1.5 MiB). Best first queues every child
+/// whose bound reaches the floor; where bounds are loose over a wide window (the whole circle
+/// over metres, a cluttered scan) that grows with the work, so beyond this the search goes on
+/// depth first from the blocks queued (exact too; memory only for its depth), and a search
+/// that would go on from the queue (the rival, the next peak) starts afresh.
+const MAX_QUEUED: usize = 1 << 16;
+
 /// A box of poses to search: translations within `half_xy_m` of the centre along x and y (map
 /// frame), rotations within `half_theta_rad` of its heading (at least π: the whole circle).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -70,6 +77,8 @@ pub struct CorrelativeMatcher {
     pad: i64,
     padded_width: i64,
     padded_height: i64,
+    /// [`MAX_QUEUED`], smaller in tests.
+    max_queued: usize,
 }
 
 impl Drop for CorrelativeMatcher {
@@ -204,10 +213,13 @@ impl Eq for Queued {}
 
 /// The blocks of a search not opened yet, best bound first; only blocks whose bound reaches
 /// `keep` (a sum of raster values) are queued: no search from this queue asks for less.
+/// `spent` once a search went on depth first from it ([`MAX_QUEUED`]): nothing can go on
+/// from it then.
 #[derive(Debug, Clone, Default)]
 struct Frontier {
     queue: BinaryHeap<Queued>,
     keep: f32,
+    spent: bool,
 }
 
 impl Frontier {
@@ -219,7 +231,11 @@ impl Frontier {
             .filter(|b| b.bound >= keep)
             .map(|b| Queued::of(b, rotations))
             .collect();
-        Frontier { queue, keep }
+        Frontier {
+            queue,
+            keep,
+            spent: false,
+        }
     }
 }
 
@@ -341,7 +357,16 @@ impl CorrelativeMatcher {
             pad,
             padded_width: pw,
             padded_height: ph,
+            max_queued: MAX_QUEUED,
         }
+    }
+
+    /// The same matcher with a queue of at most `max_queued` blocks (tests of the depth-first
+    /// fallback).
+    #[cfg(test)]
+    fn with_max_queued(mut self, max_queued: usize) -> Self {
+        self.max_queued = max_queued;
+        self
     }
 
     /// The raster searched.
@@ -421,9 +446,9 @@ impl CorrelativeMatcher {
             radius_rad: apart_rad,
         }];
         let floor = prepared.floor(found.rival_above * found.best.score);
-        let mut frontier = match floor >= found.frontier.keep {
+        let mut frontier = match floor >= found.frontier.keep && !found.frontier.spent {
             true => found.frontier.clone(),
-            // A seed scoring under the floor of the search for the best.
+            // A seed scoring under the floor of the search for the best, or a queue spent.
             false => Frontier::of(&prepared.blocks, prepared.rotations.len(), floor),
         };
         prepared
@@ -432,8 +457,8 @@ impl CorrelativeMatcher {
             .map(|leaf| prepared.candidate(self, window, leaf))
     }
 
-    /// The rotations of `window` for `points` and the top blocks of translations, best bound
-    /// first: where every search of that window for those points starts. `None` for no
+    /// The rotations of `window` for `points` and the top blocks of translations: where every
+    /// search of that window for those points starts. `None` for no
     /// points or an empty raster.
     fn prepare(&self, points: &[Vec2], window: &SearchWindow) -> Option<Prepared> {
         let n = points.len();
@@ -484,6 +509,9 @@ impl CorrelativeMatcher {
         let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
         let mut exclusions = Vec::new();
         while found.len() < max {
+            if frontier.spent {
+                frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
+            }
             let ctx = prepared.context(self, window, &exclusions);
             let Some(leaf) = ctx.next(&mut frontier, floor) else {
                 break;
@@ -676,11 +704,21 @@ impl Search<'_> {
     /// The best pose left in `frontier` outside the exclusions and reaching `floor` (a sum of
     /// raster values), as its sum and leaf block: blocks are opened best bound first, so the
     /// first pose taken scores at least every bound left. Opened and excluded blocks leave the
-    /// queue; children reaching the queue's `keep` join it.
+    /// queue; children reaching the queue's `keep` join it. Beyond `max_queued` blocks the
+    /// search goes on depth first from the queue, which is then spent.
     fn next(&self, frontier: &mut Frontier, floor: f32) -> Option<(f32, Block)> {
         while let Some(b) = frontier.queue.peek().map(Queued::block) {
             if b.bound < floor {
                 return None;
+            }
+            if frontier.queue.len() > self.matcher.max_queued {
+                let queue = std::mem::take(&mut frontier.queue).into_sorted_vec();
+                frontier.spent = true;
+                let mut best = None;
+                for q in queue.iter().rev() {
+                    self.descend(q.block(), floor, &mut best);
+                }
+                return best;
             }
             frontier.queue.pop();
             // A whole block inside an exclusion holds nothing to find (for a single pose, the
@@ -707,6 +745,42 @@ impl Search<'_> {
             }
         }
         None
+    }
+
+    /// Depth first below `b`: the best pose outside the exclusions beating `best` (or reaching
+    /// `floor` while there is none) goes to `best`; children are opened best bound first.
+    fn descend(&self, b: Block, floor: f32, best: &mut Option<(f32, Block)>) {
+        let beats = match best {
+            Some((sum, _)) => b.bound > *sum,
+            None => b.bound >= floor,
+        };
+        if !beats || self.excluded(&b) {
+            return;
+        }
+        if b.level == 0 {
+            *best = Some((b.bound, b));
+            return;
+        }
+        let size = 1i64 << (b.level - 1);
+        let mut children = [None; 4];
+        for (slot, (dx, dy)) in
+            children
+                .iter_mut()
+                .zip([(0, 0), (size, 0), (0, size), (size, size)])
+        {
+            let (ix, iy) = (b.ix + dx, b.iy + dy);
+            if ix <= self.reach && iy <= self.reach {
+                let child = self
+                    .matcher
+                    .block(self.rotations, b.rotation, ix, iy, b.level - 1);
+                *slot = Some(child);
+            }
+        }
+        let bound = |c: &Option<Block>| c.map_or(f32::NEG_INFINITY, |c| c.bound);
+        children.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
+        for c in children.iter().flatten() {
+            self.descend(*c, floor, best);
+        }
     }
 
     /// The pose of a block's lowest offset.
@@ -942,6 +1016,47 @@ mod tests {
             .unwrap();
         let rival = matcher.rival(&found, apart).expect("a pose above 0.3");
         assert!(rival.score >= 0.95 * 0.3 - 1e-6, "{rival:?}");
+    }
+
+    /// A queue of at most a few blocks: every search goes on depth first from it, and finds
+    /// the same scores as the brute force (the best, the rival apart from it, the peaks).
+    #[test]
+    fn a_full_queue_goes_on_depth_first_with_the_same_scores() {
+        let (segs, pillar) = room();
+        let raster = ScoreRaster::of(&segs, &pillar, 0.1, 0.2);
+        let queued = CorrelativeMatcher::new(raster.clone());
+        let small = CorrelativeMatcher::new(raster).with_max_queued(4);
+        let points = scan_of(&segs, &pillar, Pose2::new(0.2, 0.1, 0.05));
+        let window = SearchWindow {
+            center: Pose2::IDENTITY,
+            half_xy_m: 0.6,
+            half_theta_rad: 0.4,
+        };
+        let best = small.best(&points, &window, 0.0, &[]).unwrap();
+        let brute = small.best_brute_force(&points, &window, &[]).unwrap();
+        assert_eq!(best.score, brute.score);
+        let apart = (0.3, 0.1);
+        for rival_above in [0.5, 0.8, 0.9] {
+            let found = small
+                .window_best(&points, &window, 0.0, None, rival_above)
+                .unwrap();
+            assert!(found.frontier.spent, "the queue overflowed");
+            let exclusion = [Exclusion {
+                center: found.best.map_from_robot,
+                radius_m: apart.0,
+                radius_rad: apart.1,
+            }];
+            let rival = small.rival(&found, apart);
+            let brute = small
+                .best_brute_force(&points, &window, &exclusion)
+                .filter(|c| c.score >= rival_above * found.best.score - 1e-6);
+            assert_eq!(rival.map(|c| c.score), brute.map(|c| c.score));
+        }
+        let score = |peaks: Vec<Candidate>| peaks.iter().map(|c| c.score).collect::<Vec<_>>();
+        assert_eq!(
+            score(small.peaks(&points, &window, 0.0, 3, 0.3, 0.1)),
+            score(queued.peaks(&points, &window, 0.0, 3, 0.3, 0.1))
+        );
     }
 
     /// A window centred far off a long, thin raster: cells whose flat index would overflow

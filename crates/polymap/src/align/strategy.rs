@@ -536,11 +536,12 @@ impl Tracker<'_> {
         )
     }
 
-    /// A robot that stood still (predicted and recent steps under `search_above_step_m`) and
+    /// A robot that stood still (predicted and recent steps under `search_above_step_m`; with
+    /// the odometry prior the anchor is odometry's guess, so the recent steps decide) and
     /// still fits poorly after the window search may have turned on the spot, which neither
-    /// the prediction nor the recent motion foresees: searched again with the rotation window
-    /// as wide as the robot can turn since the last `ok` scan (`within_reach`'s bound), seeded
-    /// with the pose kept. ICP from that search's pose wins as a corner pose does, by
+    /// the prediction nor the recent motion foresees (`tracking.turn_on_the_spot`): searched
+    /// again around the prediction with the rotation window as wide as the robot can turn
+    /// since the last `ok` scan (`within_reach`'s bound), seeded with the pose kept. ICP from that search's pose wins as a corner pose does, by
     /// `tracking.corner_win_ratio` times the inliers (plus two), and only on the spot (within
     /// `search_above_step_m` of the anchor): a scan that fits poorly at its true pose (people
     /// in view) finds some turned pose that fits a little better, often off the spot (FR079
@@ -548,7 +549,8 @@ impl Tracker<'_> {
     /// on the move keeps its window: along a corridor, a pose turned half round fits as well.
     fn turned_on_the_spot(&self, aligned: Aligned, window: &SearchWindow) -> Aligned {
         let (input, tracking) = (self.input, self.config.tracking);
-        let Some(kept) = aligned.result.filter(|r| self.fits_poorly(r)) else {
+        let on = tracking.turn_on_the_spot;
+        let Some(kept) = aligned.result.filter(|r| on && self.fits_poorly(r)) else {
             return aligned;
         };
         let still = input.anchor.between(&input.guess).translation().length()

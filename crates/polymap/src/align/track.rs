@@ -153,6 +153,14 @@ pub struct TrackParams {
     /// to point on a compact blob: see [`crate::align::PointTargets`]): door frames, pillars and
     /// clutter then observe the motion along a corridor whose walls alone cannot.
     pub icp_loose_points: bool,
+    /// A robot that stood still (the predicted step and every recent step within
+    /// `search_above_step_m`; with the odometry prior, the recent steps) whose pose still fits
+    /// under `search_below_inlier_share` of the points after the window search is searched
+    /// again around the prediction, as far as it can turn since the last `ok` scan
+    /// (`max_turn_deg_s`, `reach_slack_deg`); ICP from that search's pose wins with
+    /// `corner_win_ratio` times the inliers (plus two), within `search_above_step_m` of the
+    /// anchor and within reach: a turn on the spot.
+    pub turn_on_the_spot: bool,
     /// When the final pose is still `lost` or a `poor_fit`, or (point-to-segment ICP) fits
     /// under `search_below_inlier_share` of the points whatever its verdict (the motion went
     /// beyond the window search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
@@ -228,6 +236,7 @@ impl Default for TrackParams {
             loose_point_scans: 5,
             loose_point_spacing_m: 0.1,
             icp_loose_points: true,
+            turn_on_the_spot: true,
             corner_hypotheses: true,
             corner_reach_m: 3.0,
             corner_seeds: 3,

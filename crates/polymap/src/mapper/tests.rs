@@ -132,8 +132,10 @@ fn blind_scans_after_the_first_stay_put() {
 }
 
 /// After a gap in the log the robot has turned 70° in place, far beyond the rotation search:
-/// the scan fits nowhere near the guess, and the whole-circle search puts it back (so do the
-/// corner hypotheses, and the search as far as the robot can turn since its last scan).
+/// the scan fits nowhere near the guess, and the tracker puts it back. The corner hypotheses
+/// and the search as far as the robot can turn since its last scan each do on their own
+/// (the whole-circle recovery alone takes the room's half-turned twin, 180° off, also before
+/// the turn on the spot existed).
 #[test]
 fn a_turn_during_a_gap_is_recovered() {
     let walls = room();
@@ -154,15 +156,24 @@ fn a_turn_during_a_gap_is_recovered() {
     };
     let recovered = run(Config::default());
     assert!(recovered < 1.0, "{recovered}° off");
-    // The corner hypotheses find the turn as well, on their own.
-    let mut corners_only = Config::default();
-    corners_only.mapper.recover_below_inlier_share = 0.0;
-    let by_corners = run(corners_only.clone());
+    // The corner hypotheses find the turn as well, on their own...
+    let mut none = Config::default();
+    none.mapper.recover_below_inlier_share = 0.0;
+    none.tracking.turn_on_the_spot = false;
+    none.tracking.corner_hypotheses = false;
+    let mut corners_only = none.clone();
+    corners_only.tracking.corner_hypotheses = true;
+    let by_corners = run(corners_only);
     assert!(by_corners < 1.0, "{by_corners}° off by the corners alone");
-    let mut off = corners_only;
-    off.tracking.corner_hypotheses = false;
-    // A robot that cannot turn but by the reach's slack (20°): no turn on the spot either.
-    off.tracking.max_turn_deg_s = 0.0;
+    // ...and so does the search of a turn on the spot.
+    let mut turn_only = none.clone();
+    turn_only.tracking.turn_on_the_spot = true;
+    let by_turn = run(turn_only);
+    assert!(
+        by_turn < 1.0,
+        "{by_turn}° off by the turn on the spot alone"
+    );
+    let off = none;
     assert!(
         run(off) > 10.0,
         "the test needs a turn the normal search misses"
