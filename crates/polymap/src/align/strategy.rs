@@ -541,12 +541,13 @@ impl Tracker<'_> {
     /// still fits poorly after the window search may have turned on the spot, which neither
     /// the prediction nor the recent motion foresees (`tracking.turn_on_the_spot`): searched
     /// again around the prediction with the rotation window as wide as the robot can turn
-    /// since the last `ok` scan (`within_reach`'s bound), seeded with the pose kept. ICP from that search's pose wins as a corner pose does, by
-    /// `tracking.corner_win_ratio` times the inliers (plus two), and only on the spot (within
-    /// `search_above_step_m` of the anchor): a scan that fits poorly at its true pose (people
-    /// in view) finds some turned pose that fits a little better, often off the spot (FR079
-    /// every 3rd scan: a pose turned 85° and 0.38 m away fitting 54 % against 34 %). A robot
-    /// on the move keeps its window: along a corridor, a pose turned half round fits as well.
+    /// since the last `ok` scan (`within_reach`'s bound), seeded with the pose kept. ICP from
+    /// that search's pose wins as a corner pose does, by `tracking.corner_win_ratio` times the
+    /// inliers (plus two), and only on the spot (within `search_above_step_m` of the anchor)
+    /// and within reach: a scan that fits poorly at its true pose (people in view) finds some
+    /// turned pose that fits a little better, often off the spot (FR079 every 3rd scan: a pose
+    /// turned 85° and 0.38 m away fitting 54 % against 34 %). A robot on the move keeps its
+    /// window: along a corridor, a pose turned half round fits as well.
     fn turned_on_the_spot(&self, aligned: Aligned, window: &SearchWindow) -> Aligned {
         let (input, tracking) = (self.input, self.config.tracking);
         let on = tracking.turn_on_the_spot;
