@@ -161,6 +161,11 @@ pub struct TrackParams {
     /// `corner_win_ratio` times the inliers (plus two), within `search_above_step_m` of the
     /// anchor and within reach: a turn on the spot.
     pub turn_on_the_spot: bool,
+    /// Without the odometry prior, a scan after a gap in stamps that keep time whose pose from
+    /// the starts fits under `search_below_inlier_share` of the points is searched as far as
+    /// the robot can go and turn in the time since the last `ok` scan (`max_speed_m_s` up to
+    /// `max_window_m`, `max_turn_deg_s` up to the widest window).
+    pub gap_window: bool,
     /// When the final pose is still `lost` or a `poor_fit`, or (point-to-segment ICP) fits
     /// under `search_below_inlier_share` of the points whatever its verdict (the motion went
     /// beyond the window search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
@@ -237,6 +242,7 @@ impl Default for TrackParams {
             loose_point_spacing_m: 0.1,
             icp_loose_points: true,
             turn_on_the_spot: true,
+            gap_window: true,
             corner_hypotheses: true,
             corner_reach_m: 3.0,
             corner_seeds: 3,

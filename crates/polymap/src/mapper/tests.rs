@@ -132,10 +132,10 @@ fn blind_scans_after_the_first_stay_put() {
 }
 
 /// After a gap in the log the robot has turned 70° in place, far beyond the rotation search:
-/// the scan fits nowhere near the guess, and the tracker puts it back. The corner hypotheses
-/// and the search as far as the robot can turn since its last scan each do on their own
-/// (the whole-circle recovery alone takes the room's half-turned twin, 180° off, also before
-/// the turn on the spot existed).
+/// the scan fits nowhere near the guess, and the tracker puts it back. The corner hypotheses,
+/// the search as far as the robot can turn since its last scan, and the window as far as it
+/// can go in the gap's time each do on their own (the whole-circle recovery alone takes the
+/// room's half-turned twin, 180° off, also before the last two existed).
 #[test]
 fn a_turn_during_a_gap_is_recovered() {
     let walls = room();
@@ -160,18 +160,26 @@ fn a_turn_during_a_gap_is_recovered() {
     let mut none = Config::default();
     none.mapper.recover_below_inlier_share = 0.0;
     none.tracking.turn_on_the_spot = false;
+    none.tracking.gap_window = false;
     none.tracking.corner_hypotheses = false;
     let mut corners_only = none.clone();
     corners_only.tracking.corner_hypotheses = true;
     let by_corners = run(corners_only);
     assert!(by_corners < 1.0, "{by_corners}° off by the corners alone");
-    // ...and so does the search of a turn on the spot.
+    // ...and so do the search of a turn on the spot and the window after a gap.
     let mut turn_only = none.clone();
     turn_only.tracking.turn_on_the_spot = true;
     let by_turn = run(turn_only);
     assert!(
         by_turn < 1.0,
         "{by_turn}° off by the turn on the spot alone"
+    );
+    let mut gap_only = none.clone();
+    gap_only.tracking.gap_window = true;
+    let by_gap = run(gap_only);
+    assert!(
+        by_gap < 1.0,
+        "{by_gap}° off by the window after a gap alone"
     );
     let off = none;
     assert!(

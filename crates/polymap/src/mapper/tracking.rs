@@ -108,6 +108,7 @@ impl Mapper {
             reference,
             restart,
             dt_s,
+            after_gap: !odometry && self.observed.gap_scale(scan.stamp_s) > 1.0,
             constant_velocity,
             recent: &self.recent,
             lost_streak: self.lost_streak,
