@@ -1194,6 +1194,19 @@ mod tests {
         recent: &RecentMotion,
         anchor: Pose2,
     ) -> (bool, Pose2, Tracking) {
+        track_timed(scene, tracking, starts, recent, anchor, None, false)
+    }
+
+    /// [`track_after`] `dt_s` seconds after the last `ok` scan, `after_gap` or not.
+    fn track_timed(
+        scene: (&[Segment], &GlobalMap, Pose2, Pose2, u32),
+        tracking: &TrackParams,
+        starts: &MapperParams,
+        recent: &RecentMotion,
+        anchor: Pose2,
+        dt_s: Option<f64>,
+        after_gap: bool,
+    ) -> (bool, Pose2, Tracking) {
         let truth = scene.2;
         with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
             let input = TrackInput {
@@ -1202,6 +1215,8 @@ mod tests {
                 unobserved_to: anchor,
                 reference: anchor,
                 restart: anchor,
+                dt_s,
+                after_gap,
                 ..*t.input
             };
             let config = TrackConfig {
@@ -1285,25 +1300,7 @@ mod tests {
         ] {
             let scene = (&world[..], &map, truth, before, 0);
             let (near, e, verdict) =
-                with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
-                    let input = TrackInput {
-                        recent,
-                        anchor: before,
-                        unobserved_to: before,
-                        reference: before,
-                        restart: before,
-                        dt_s,
-                        ..*t.input
-                    };
-                    let config = TrackConfig {
-                        starts: &starts,
-                        ..*t.config
-                    };
-                    let (result, verdict) = track_scan(&input, &config);
-                    let e = truth.between(&result.expect("a pose").map_from_robot);
-                    let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
-                    (near, e, verdict)
-                });
+                track_timed(scene, tracking, &starts, recent, before, dt_s, false);
             let step = recent.step_m();
             assert_eq!(
                 near, found,
@@ -1338,27 +1335,15 @@ mod tests {
         let still = RecentMotion::default();
         let scene = (&world[..], &map, truth, before, 0);
         for (after_gap, found) in [(true, true), (false, false)] {
-            let (near, e, verdict) =
-                with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
-                    let input = TrackInput {
-                        recent: &still,
-                        anchor: before,
-                        unobserved_to: before,
-                        reference: before,
-                        restart: before,
-                        dt_s: Some(3.0),
-                        after_gap,
-                        ..*t.input
-                    };
-                    let config = TrackConfig {
-                        starts: &starts,
-                        ..*t.config
-                    };
-                    let (result, verdict) = track_scan(&input, &config);
-                    let e = truth.between(&result.expect("a pose").map_from_robot);
-                    let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
-                    (near, e, verdict)
-                });
+            let (near, e, verdict) = track_timed(
+                scene,
+                &tracking,
+                &starts,
+                &still,
+                before,
+                Some(3.0),
+                after_gap,
+            );
             assert_eq!(near, found, "after a gap {after_gap}: {e:?} {verdict:?}");
             assert!(verdict.searched, "{verdict:?}");
         }
