@@ -280,6 +280,11 @@ impl Prepared {
         }
     }
 
+    /// The queue of this window's top blocks reaching `keep` (a sum of raster values).
+    fn frontier(&self, keep: f32) -> Frontier {
+        Frontier::of(&self.blocks, self.rotations.len(), keep)
+    }
+
     /// The sum of raster values a mean score of `min_score` asks for.
     fn floor(&self, min_score: f64) -> f32 {
         (min_score * self.points as f64) as f32
@@ -385,7 +390,7 @@ impl CorrelativeMatcher {
     ) -> Option<Candidate> {
         let prepared = self.prepare(points_in_robot, window)?;
         let floor = prepared.floor(min_score);
-        let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
+        let mut frontier = prepared.frontier(floor);
         let found = prepared
             .context(self, window, exclusions)
             .next(&mut frontier, floor);
@@ -417,7 +422,7 @@ impl CorrelativeMatcher {
         // rival is then searched afresh), so its rival at least `rival_above` of that.
         let floor = prepared.floor(min_score);
         let keep = prepared.floor(rival_above.min(1.0) * min_score);
-        let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), keep);
+        let mut frontier = prepared.frontier(keep);
         let found = prepared
             .context(self, window, &[])
             .next(&mut frontier, floor);
@@ -449,7 +454,7 @@ impl CorrelativeMatcher {
         let mut frontier = match floor >= found.frontier.keep && !found.frontier.spent {
             true => found.frontier.clone(),
             // A seed scoring under the floor of the search for the best, or a queue spent.
-            false => Frontier::of(&prepared.blocks, prepared.rotations.len(), floor),
+            false => prepared.frontier(floor),
         };
         prepared
             .context(self, window, &exclusion)
@@ -458,8 +463,7 @@ impl CorrelativeMatcher {
     }
 
     /// The rotations of `window` for `points` and the top blocks of translations: where every
-    /// search of that window for those points starts. `None` for no
-    /// points or an empty raster.
+    /// search of that window for those points starts. `None` for no points or an empty raster.
     fn prepare(&self, points: &[Vec2], window: &SearchWindow) -> Option<Prepared> {
         let n = points.len();
         if n == 0 || self.raster.size().0 == 0 {
@@ -506,11 +510,11 @@ impl CorrelativeMatcher {
         // Each peak is the best pose outside the ones before: the search goes on from the
         // same queue (a block left out by an exclusion stays out: exclusions only grow).
         let floor = prepared.floor(min_score);
-        let mut frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
+        let mut frontier = prepared.frontier(floor);
         let mut exclusions = Vec::new();
         while found.len() < max {
             if frontier.spent {
-                frontier = Frontier::of(&prepared.blocks, prepared.rotations.len(), floor);
+                frontier = prepared.frontier(floor);
             }
             let ctx = prepared.context(self, window, &exclusions);
             let Some(leaf) = ctx.next(&mut frontier, floor) else {
@@ -729,22 +733,27 @@ impl Search<'_> {
             if b.level == 0 {
                 return Some((b.bound, b));
             }
-            let size = 1i64 << (b.level - 1);
-            for (dx, dy) in [(0, 0), (size, 0), (0, size), (size, size)] {
-                let (ix, iy) = (b.ix + dx, b.iy + dy);
-                if ix <= self.reach && iy <= self.reach {
-                    let child = self
-                        .matcher
-                        .block(self.rotations, b.rotation, ix, iy, b.level - 1);
-                    if child.bound >= frontier.keep {
-                        frontier
-                            .queue
-                            .push(Queued::of(&child, self.rotations.len()));
-                    }
+            for child in self.children(&b).into_iter().flatten() {
+                if child.bound >= frontier.keep {
+                    frontier
+                        .queue
+                        .push(Queued::of(&child, self.rotations.len()));
                 }
             }
         }
         None
+    }
+
+    /// The four blocks of the level below `b` (level > 0) that lie in the window.
+    fn children(&self, b: &Block) -> [Option<Block>; 4] {
+        let size = 1i64 << (b.level - 1);
+        [(0, 0), (size, 0), (0, size), (size, size)].map(|(dx, dy)| {
+            let (ix, iy) = (b.ix + dx, b.iy + dy);
+            (ix <= self.reach && iy <= self.reach).then(|| {
+                self.matcher
+                    .block(self.rotations, b.rotation, ix, iy, b.level - 1)
+            })
+        })
     }
 
     /// Depth first below `b`: the best pose outside the exclusions beating `best` (or reaching
@@ -761,21 +770,7 @@ impl Search<'_> {
             *best = Some((b.bound, b));
             return;
         }
-        let size = 1i64 << (b.level - 1);
-        let mut children = [None; 4];
-        for (slot, (dx, dy)) in
-            children
-                .iter_mut()
-                .zip([(0, 0), (size, 0), (0, size), (size, size)])
-        {
-            let (ix, iy) = (b.ix + dx, b.iy + dy);
-            if ix <= self.reach && iy <= self.reach {
-                let child = self
-                    .matcher
-                    .block(self.rotations, b.rotation, ix, iy, b.level - 1);
-                *slot = Some(child);
-            }
-        }
+        let mut children = self.children(&b);
         let bound = |c: &Option<Block>| c.map_or(f32::NEG_INFINITY, |c| c.bound);
         children.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
         for c in children.iter().flatten() {
@@ -951,6 +946,26 @@ mod tests {
         assert_near(&truth, &found);
     }
 
+    /// The rival of `found` and the brute force's best pose `apart` from its best, scoring at
+    /// least its `rival_above` share of the best's score (the floor is rounded to f32: allow
+    /// that rounding).
+    fn rival_and_brute_force(
+        matcher: &CorrelativeMatcher,
+        points: &[Vec2],
+        found: &WindowBest,
+        apart: (f64, f64),
+    ) -> (Option<Candidate>, Option<Candidate>) {
+        let exclusion = [Exclusion {
+            center: found.best.map_from_robot,
+            radius_m: apart.0,
+            radius_rad: apart.1,
+        }];
+        let brute = matcher
+            .best_brute_force(points, &found.window, &exclusion)
+            .filter(|c| c.score >= found.rival_above * found.best.score - 1e-6);
+        (matcher.rival(found, apart), brute)
+    }
+
     #[test]
     fn the_rival_is_the_best_pose_apart_from_the_best() {
         let (segs, pillar) = room();
@@ -969,17 +984,9 @@ mod tests {
                 .unwrap();
             let best = matcher.best_brute_force(&points, &window, &[]).unwrap();
             assert_eq!(found.best.score, best.score);
-            let exclusion = [Exclusion {
-                center: found.best.map_from_robot,
-                radius_m: apart.0,
-                radius_rad: apart.1,
-            }];
             // The search goes on from the queue the best's search left: the same score as
             // scoring every pose apart from the best.
-            let rival = matcher.rival(&found, apart);
-            let brute = matcher
-                .best_brute_force(&points, &window, &exclusion)
-                .filter(|c| c.score >= rival_above * best.score - 1e-6);
+            let (rival, brute) = rival_and_brute_force(&matcher, &points, &found, apart);
             assert_eq!(
                 rival.map(|c| c.score),
                 brute.map(|c| c.score),
@@ -1041,15 +1048,7 @@ mod tests {
                 .window_best(&points, &window, 0.0, None, rival_above)
                 .unwrap();
             assert!(found.frontier.spent, "the queue overflowed");
-            let exclusion = [Exclusion {
-                center: found.best.map_from_robot,
-                radius_m: apart.0,
-                radius_rad: apart.1,
-            }];
-            let rival = small.rival(&found, apart);
-            let brute = small
-                .best_brute_force(&points, &window, &exclusion)
-                .filter(|c| c.score >= rival_above * found.best.score - 1e-6);
+            let (rival, brute) = rival_and_brute_force(&small, &points, &found, apart);
             assert_eq!(rival.map(|c| c.score), brute.map(|c| c.score));
         }
         let score = |peaks: Vec<Candidate>| peaks.iter().map(|c| c.score).collect::<Vec<_>>();

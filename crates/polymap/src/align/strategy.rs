@@ -542,20 +542,28 @@ impl Tracker<'_> {
             tracking,
         );
         // After a gap in the log (scans missing; `tracking.gap_window`), as far as the robot
-        // can go and turn in the gap's time (`within_reach`'s bounds, the translation up to `max_window_m`): over a
-        // gap the last motion, even scaled to the gap's time, says little (a robot that turned
-        // on the spot before a 3 s gap moved 0.6 m in it).
+        // can go and turn in the gap's time (`within_reach`'s bounds, the translation up to
+        // `max_window_m`): over a gap the last motion, even scaled to the gap's time, says
+        // little (a robot that turned on the spot before a 3 s gap moved 0.6 m in it).
         let after_gap = tracking.gap_window && input.after_gap;
         if let Some(dt) = input.dt_s.filter(|_| poor && after_gap) {
-            let reach_m = (tracking.max_speed_m_s * dt + tracking.reach_slack_m)
-                .min(tracking.max_window_m.max(tracking.min_window_m));
-            let reach_deg = (tracking.max_turn_deg_s * dt + tracking.reach_slack_deg)
-                .min(tracking.widest_window_deg(odometry))
-                .min(180.0);
+            let (reach_m, _) = tracking.reach(dt);
+            let reach_m = reach_m.min(tracking.max_window_m.max(tracking.min_window_m));
             window.half_xy_m = window.half_xy_m.max(reach_m);
-            window.half_theta_rad = window.half_theta_rad.max(reach_deg.to_radians());
+            window.half_theta_rad = window.half_theta_rad.max(self.turn_reach_rad(dt));
         }
         window
+    }
+
+    /// The turn the robot can make in `dt` seconds ([`TrackParams::reach`]), up to the widest
+    /// window, radians.
+    fn turn_reach_rad(&self, dt: f64) -> f64 {
+        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
+        let (_, reach_deg) = self.config.tracking.reach(dt);
+        reach_deg
+            .min(self.config.tracking.widest_window_deg(odometry))
+            .min(180.0)
+            .to_radians()
     }
 
     /// A robot that stood still (predicted and recent steps under `search_above_step_m`; with
@@ -579,13 +587,11 @@ impl Tracker<'_> {
         let still = input.anchor.between(&input.guess).translation().length()
             <= tracking.search_above_step_m
             && input.recent.step_m() <= tracking.search_above_step_m;
-        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
-        let Some(reach_rad) = input.dt_s.filter(|_| still).map(|dt| {
-            (tracking.max_turn_deg_s * dt + tracking.reach_slack_deg)
-                .min(tracking.widest_window_deg(odometry))
-                .min(180.0)
-                .to_radians()
-        }) else {
+        let Some(reach_rad) = input
+            .dt_s
+            .filter(|_| still)
+            .map(|dt| self.turn_reach_rad(dt))
+        else {
             return aligned;
         };
         if reach_rad <= window.half_theta_rad {
@@ -728,9 +734,9 @@ impl Tracker<'_> {
             return true;
         };
         let d = input.reference.between(pose);
-        d.translation().length() <= tracking.max_speed_m_s * dt + tracking.reach_slack_m
-            && normalize_angle_rad(d.theta_rad).abs().to_degrees()
-                <= tracking.max_turn_deg_s * dt + tracking.reach_slack_deg
+        let (reach_m, reach_deg) = tracking.reach(dt);
+        d.translation().length() <= reach_m
+            && normalize_angle_rad(d.theta_rad).abs().to_degrees() <= reach_deg
     }
 
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that

@@ -428,6 +428,16 @@ pub struct Tracking {
 }
 
 impl TrackParams {
+    /// How far the robot can go and turn in `dt_s` seconds: `max_speed_m_s` and
+    /// `max_turn_deg_s` times it, plus `reach_slack_m` and `reach_slack_deg` (metres,
+    /// degrees).
+    pub fn reach(&self, dt_s: f64) -> (f64, f64) {
+        (
+            self.max_speed_m_s * dt_s + self.reach_slack_m,
+            self.max_turn_deg_s * dt_s + self.reach_slack_deg,
+        )
+    }
+
     /// Half-width of the widest rotation window while tracking, degrees: `max_window_deg`, or
     /// `odometry_max_window_deg` with the odometry prior; never under `min_window_deg`.
     pub fn widest_window_deg(&self, odometry: bool) -> f64 {
