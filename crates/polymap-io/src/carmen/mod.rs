@@ -6,7 +6,10 @@
 //! - `FLASER n r_1 … r_n x y theta odom_x odom_y odom_theta ipc_timestamp host logger_timestamp`:
 //!   a front laser scan. The bearings follow [`flaser_beam_geometry`]; the maximum range is
 //!   [`ReaderOptions::flaser_max_range_m`]; the laser sits at `PARAM robot_frontlaser_offset`
-//!   metres along the robot's x axis; the second pose triple is the robot's odometry pose.
+//!   metres along the robot's x axis; the second pose triple is the robot's odometry pose
+//!   (when it is the last `ODOM` message's and older than the scan by more than
+//!   [`ReaderOptions::stale_odometry_s`], as after a gap in the log, it is interpolated at the
+//!   scan's stamp from the `ODOM` messages around it; the scan waits for the next message).
 //! - `ROBOTLASER1 laser_type start_angle fov resolution max_range accuracy remission_mode
 //!   n r_1 … r_n m rem_1 … rem_m laser_x laser_y laser_theta robot_x robot_y robot_theta
 //!   tv rv forward_safety_dist side_safety_dist turn_axis ipc_timestamp host logger_timestamp`:

@@ -45,6 +45,11 @@ pub struct CarmenStats {
     /// [`ReaderOptions::max_odometry_jump_m`](super::ReaderOptions) from the scan before: their
     /// odometry is dropped (the mapper then has no odometry guess for them).
     pub odometry_jumps: Oddity,
+    /// Scans whose odometry was the last `ODOM` message's, written more than
+    /// [`ReaderOptions::stale_odometry_s`](super::ReaderOptions) before them: their odometry
+    /// is interpolated at their stamp from the `ODOM` messages around it (`largest`: the
+    /// oldest, seconds).
+    pub stale_odometry: Oddity,
 }
 
 /// How often something odd but readable occurred, and where first.
@@ -54,7 +59,8 @@ pub struct Oddity {
     pub count: u64,
     /// The 1-based line of the first time (0 when never).
     pub first_line: u64,
-    /// The largest size seen, in the oddity's unit (metres for odometry jumps, else 0).
+    /// The largest size seen, in the oddity's unit (metres for odometry jumps, seconds for stale
+    /// odometry, else 0).
     pub largest: f64,
 }
 
@@ -124,6 +130,15 @@ impl CarmenStats {
                 &format!(
                     "scan(s) whose odometry jumped (largest {:.1} m) from the scan before; their odometry is not used",
                     self.odometry_jumps.largest
+                ),
+            );
+        }
+        if self.stale_odometry.count > 0 {
+            say(
+                &self.stale_odometry,
+                &format!(
+                    "scan(s) whose odometry was up to {:.1} s older than the scan (odometry messages missing); their odometry is interpolated at their stamp from the ODOM messages around it",
+                    self.stale_odometry.largest
                 ),
             );
         }

@@ -2,6 +2,7 @@
 
 use super::tests::{flaser, read_all, reader};
 use super::*;
+use polymap::geometry::Pose2;
 
 fn robotlaser(fov: &str, res: &str, n: usize, stamp: &str) -> String {
     let ranges = vec!["2.0"; n].join(" ");
@@ -115,4 +116,136 @@ fn control_bytes_of_a_line_are_escaped_in_errors_and_counts() {
         "{e}"
     );
     assert!(r.stats().skipped_types.contains_key("\\x1b[2JBOGUS"));
+}
+
+/// An `ODOM` line at `x` metres, heading `theta` radians, stamped `t` seconds.
+fn odom(x: f64, theta: f64, t: f64) -> String {
+    format!("ODOM {x} 0 {theta} 0 0 0 {t} h 0\n")
+}
+
+/// A `FLASER` line whose odometry pose is `x` metres, heading `theta`, stamped `t`.
+fn scan_at(x: f64, theta: f64, t: f64) -> String {
+    format!("FLASER 3 1.0 1.0 1.0 0 0 0 {x} 0 {theta} {t} h 0\n")
+}
+
+#[test]
+fn odometry_older_than_the_scan_is_interpolated_from_the_odometry_messages_around_it() {
+    // Odometry stops 2.9 s before the scan after a gap; the scan carries that last reading,
+    // and the next message reads the turn made meanwhile.
+    let text = [
+        odom(0.0, 0.0, 1.0),
+        scan_at(0.0, 0.0, 1.05),
+        odom(0.1, 0.0, 1.1),
+        scan_at(0.1, 0.0, 4.0),
+        odom(3.1, 1.5, 4.1),
+        scan_at(3.1, 1.5, 4.2),
+    ]
+    .concat();
+    let mut r = reader(&text, ReaderOptions::default());
+    let mut order = Vec::new();
+    let mut scans = Vec::new();
+    while let Some(record) = r.next_record().unwrap() {
+        match record {
+            CarmenRecord::Scan(s) => {
+                order.push('s');
+                scans.push(s);
+            }
+            CarmenRecord::Odometry(_) => order.push('o'),
+        }
+    }
+    assert_eq!(order, ['o', 's', 'o', 's', 'o', 's'], "file order kept");
+    let f = 2.9 / 3.0;
+    let expected = Pose2::new(0.1 + f * 3.0, 0.0, f * 1.5);
+    let got = scans[1].odom_from_robot.unwrap();
+    assert!(
+        (got.translation() - expected.translation()).length() < 1e-9
+            && (got.theta_rad - expected.theta_rad).abs() < 1e-9,
+        "{got:?}"
+    );
+    // The others keep their odometry as logged.
+    assert_eq!(scans[0].odom_from_robot, Some(Pose2::new(0.0, 0.0, 0.0)));
+    assert_eq!(scans[2].odom_from_robot, Some(Pose2::new(3.1, 0.0, 1.5)));
+    let stats = r.stats();
+    assert_eq!(
+        (stats.stale_odometry.count, stats.stale_odometry.first_line),
+        (1, 4)
+    );
+    assert!((stats.stale_odometry.largest - 2.9).abs() < 1e-9);
+    assert!(
+        stats.warnings()[0].contains("older than the scan"),
+        "{:?}",
+        stats.warnings()
+    );
+}
+
+#[test]
+fn odometry_is_left_as_logged_unless_it_is_the_last_message_and_older_than_the_bound() {
+    let cases = [
+        // The scan's own odometry differs from the last message's: it is the scan's.
+        [
+            odom(0.1, 0.0, 1.1),
+            scan_at(0.2, 0.0, 4.0),
+            odom(3.1, 1.5, 4.1),
+        ],
+        // The last message is 0.9 s old: within the bound.
+        [
+            odom(0.1, 0.0, 1.1),
+            scan_at(0.1, 0.0, 2.0),
+            odom(3.1, 1.5, 4.1),
+        ],
+        // The next message is stamped before the scan: nothing brackets its stamp.
+        [
+            odom(0.1, 0.0, 1.1),
+            scan_at(0.1, 0.0, 4.0),
+            odom(3.1, 1.5, 3.9),
+        ],
+    ];
+    for (i, case) in cases.iter().enumerate() {
+        let (scans, stats) = read_all(&case.concat());
+        assert_eq!(scans.len(), 1, "case {i}");
+        let x = scans[0].odom_from_robot.unwrap().x_m;
+        assert!(x == 0.1 || x == 0.2, "case {i}: {x}");
+        assert_eq!(stats.stale_odometry.count, 0, "case {i}");
+        assert!(stats.warnings().is_empty(), "case {i}");
+    }
+}
+
+#[test]
+fn scans_held_for_odometry_that_never_comes_are_returned_as_logged_in_file_order() {
+    // A stale scan, then one more scan, then the end of the log: no message says better.
+    let text = [
+        odom(0.1, 0.0, 1.1),
+        scan_at(0.1, 0.0, 4.0),
+        scan_at(0.1, 0.0, 4.2),
+    ]
+    .concat();
+    let (scans, stats) = read_all(&text);
+    let stamps: Vec<f64> = scans.iter().map(|s| s.stamp.seconds).collect();
+    assert_eq!(stamps, [4.0, 4.2]);
+    assert!(
+        scans
+            .iter()
+            .all(|s| s.odom_from_robot == Some(Pose2::new(0.1, 0.0, 0.0)))
+    );
+    assert_eq!(stats.stale_odometry.count, 0);
+    // Held across a skipped bad line, and still interpolated by the message after it.
+    let text = [
+        odom(0.1, 0.0, 1.1),
+        scan_at(0.1, 0.0, 4.0),
+        "FLASER 3 1.0\n".to_string(),
+        odom(3.1, 1.5, 4.1),
+    ]
+    .concat();
+    let options = ReaderOptions {
+        skip_bad_lines: true,
+        ..ReaderOptions::default()
+    };
+    let mut r = reader(&text, options);
+    let scan = r.next_scan().unwrap().unwrap();
+    assert!(scan.odom_from_robot.unwrap().x_m > 3.0);
+    assert!(r.next_scan().unwrap().is_none());
+    assert_eq!(
+        (r.stats().bad_lines, r.stats().stale_odometry.count),
+        (1, 1)
+    );
 }

@@ -357,7 +357,7 @@ impl OdomTrack {
             (_, Some((tn, pn))) if tn == t_ns => Ok((pn, false)),
             (Some((tp, pp)), Some((tn, pn))) if tp <= t_ns && t_ns < tn => {
                 let f = ((t_ns - tp) as f64) / ((tn - tp) as f64);
-                Ok((interpolate(&pp, &pn, f), false))
+                Ok((pp.interpolate(&pn, f), false))
             }
             (_, Some((_, pn))) => Ok((pn, true)),
             (Some((_, pp)), None) => Ok((pp, true)),
@@ -408,15 +408,4 @@ impl OdomTrack {
         }
         Ok(None)
     }
-}
-
-/// The pose a fraction `f` of the way from `a` to `b` (yaw along the shorter arc).
-fn interpolate(a: &Pose2, b: &Pose2, f: f64) -> Pose2 {
-    let d = b.theta_rad - a.theta_rad;
-    let d = d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
-    Pose2::new(
-        a.x_m + f * (b.x_m - a.x_m),
-        a.y_m + f * (b.y_m - a.y_m),
-        a.theta_rad + f * d,
-    )
 }

@@ -85,6 +85,29 @@ impl Pose2 {
         self.inverse().compose(other)
     }
 
+    /// The pose a fraction `f` of the way from `self` to `other` (0: `self`, 1: `other`):
+    /// position along the straight line, heading along the shorter arc. For poses at two
+    /// times of one frame (odometry read before and after a scan's stamp).
+    ///
+    /// ```
+    /// use polymap::geometry::Pose2;
+    /// let a = Pose2::new(0.0, 0.0, 3.0);
+    /// let b = Pose2::new(2.0, 4.0, -3.0);
+    /// let m = a.interpolate(&b, 0.5);
+    /// assert_eq!((m.x_m, m.y_m), (1.0, 2.0));
+    /// // Through ±π, not through 0.
+    /// assert!((m.theta_rad.abs() - std::f64::consts::PI).abs() < 1e-12);
+    /// ```
+    pub fn interpolate(&self, other: &Pose2, f: f64) -> Pose2 {
+        let d = other.theta_rad - self.theta_rad;
+        let d = d - std::f64::consts::TAU * (d / std::f64::consts::TAU).round();
+        Pose2::new(
+            self.x_m + f * (other.x_m - self.x_m),
+            self.y_m + f * (other.y_m - self.y_m),
+            self.theta_rad + f * d,
+        )
+    }
+
     /// True when every field is finite.
     pub fn is_finite(&self) -> bool {
         self.x_m.is_finite() && self.y_m.is_finite() && self.theta_rad.is_finite()
