@@ -836,6 +836,37 @@ impl Tracker<'_> {
             .then_some(cv)
     }
 
+    /// With the odometry prior (`tracking.reversed_odometry`), the last `ok` pose moved by
+    /// the odometry's motion since then ([`TrackInput::restart`]) with its translation
+    /// reversed and its turn kept; `None` for a motion under `tracking.search_above_step_m`
+    /// (ICP's basin covers it reversed).
+    fn reversed_odometry(&self) -> Option<Pose2> {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
+        if !(odometry && tracking.reversed_odometry) {
+            return None;
+        }
+        let d = input.reference.between(&input.restart);
+        (d.translation().length() >= tracking.search_above_step_m).then(|| {
+            input
+                .reference
+                .compose(&Pose2::new(-d.x_m, -d.y_m, d.theta_rad))
+        })
+    }
+
+    /// Whether `other`, a pose away from the prediction, beats `current` clearly: by
+    /// `tracking.corner_win_ratio` times its inliers (plus two), with at least
+    /// `tracking.search_below_inlier_share` of the points, and every direction observed with
+    /// at least `tracking.weak_below_information`.
+    fn wins_clearly(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        let tracking = self.config.tracking;
+        let n = self.points.len() as f64;
+        other.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
+            && other.inliers as f64 >= tracking.search_below_inlier_share * n
+            && other.weak_directions == 0
+            && other.translation_information.weakest >= tracking.weak_below_information
+    }
+
     /// Where ICP may start, before [`MapperParams::icp_from_best_start_only`] picks one: the
     /// guess; the anchor when they differ (a constant-velocity guess is wrong when a turn
     /// starts, stops or reverses); the constant-velocity guess where odometry disagrees with
@@ -908,6 +939,20 @@ impl Tracker<'_> {
                 if better(&from_turned, &result) {
                     result = from_turned;
                 }
+            }
+        }
+        // Where that still fits poorly, odometry may have read the distance but not the
+        // direction of travel (FR079 backing up, every 10th scan: forward 0.79, 1.06 and
+        // 1.06 m where the robot backed 0.57, 0.79 and 1.07 m, the turns right): also from
+        // the odometry's motion reversed, which must win clearly (a corridor fits a pose a
+        // step back nearly as well).
+        if let Some(start) = self
+            .reversed_odometry()
+            .filter(|_| self.fits_poorly(&result))
+        {
+            let reversed = self.run_near(start);
+            if self.wins_clearly(&reversed, &result) {
+                result = reversed;
             }
         }
         // With odometry the guess already carries the turn; a poor fit after a gap then
@@ -1665,6 +1710,58 @@ mod tests {
             "{from_cv:?}"
         );
         assert_near(&truth, &(found, Tracking::default()));
+    }
+
+    #[test]
+    fn with_odometry_a_motion_read_in_the_wrong_direction_is_found_reversed() {
+        // The robot backed 1.2 m from (4, 3) and turned 10°; odometry read the turn and 1.2 m
+        // forward (FR079 backing up, every 10th scan).
+        let last = Pose2::new(4.0, 3.0, 0.3);
+        let turn = 10f64.to_radians();
+        let truth = last.compose(&Pose2::new(-1.2, 0.0, turn));
+        let read = last.compose(&Pose2::new(1.2, 0.0, turn));
+        let align = AlignParams::default();
+        let track = |reversed_odometry: bool| {
+            let tracking = TrackParams {
+                reversed_odometry,
+                ..TrackParams::default()
+            };
+            with_odometry_tracker((truth, read, read), &align, &tracking, |t| {
+                let input = TrackInput {
+                    reference: last,
+                    restart: read,
+                    ..*t.input
+                };
+                let t = Tracker {
+                    input: &input,
+                    ..*t
+                };
+                let from_read = t.run(&[], read);
+                assert!(t.fits_poorly(&from_read), "{from_read:?}");
+                t.icp_from_starts()
+            })
+        };
+        assert_near(&truth, &(track(true), Tracking::default()));
+        let without = track(false).unwrap().map_from_robot;
+        assert!(
+            without.between(&truth).translation().length() > 1.0,
+            "{without:?}"
+        );
+        // Odometry that reads the motion right fits: nothing reversed is tried.
+        let tracking = TrackParams::default();
+        let kept = with_odometry_tracker((truth, truth, truth), &align, &tracking, |t| {
+            let input = TrackInput {
+                reference: last,
+                restart: truth,
+                ..*t.input
+            };
+            Tracker {
+                input: &input,
+                ..*t
+            }
+            .icp_from_starts()
+        });
+        assert_near(&truth, &(kept, Tracking::default()));
     }
 
     #[test]

@@ -166,6 +166,13 @@ pub struct TrackParams {
     /// the robot can go and turn in the time since the last `ok` scan (`max_speed_m_s` up to
     /// `max_window_m`, `max_turn_deg_s` up to the widest window).
     pub gap_window: bool,
+    /// With the odometry prior, a pose that still fits under `search_below_inlier_share` of
+    /// the points is also sought from the odometry's motion since the last `ok` scan with its
+    /// direction of travel reversed (odometry that reads the distance but not the direction:
+    /// FR079 backing up reads forward); that pose wins with `corner_win_ratio` times the
+    /// inliers (plus two), at least `search_below_inlier_share` of the points, and every
+    /// direction observed with at least `weak_below_information`.
+    pub reversed_odometry: bool,
     /// When the final pose is still `lost` or a `poor_fit`, or (point-to-segment ICP) fits
     /// under `search_below_inlier_share` of the points whatever its verdict (the motion went
     /// beyond the window search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
@@ -243,6 +250,7 @@ impl Default for TrackParams {
             icp_loose_points: true,
             turn_on_the_spot: true,
             gap_window: true,
+            reversed_odometry: true,
             corner_hypotheses: true,
             corner_reach_m: 3.0,
             corner_seeds: 3,
