@@ -372,6 +372,8 @@ fn reader_json(s: &CarmenStats) -> serde_json::Value {
         "odometry_messages": s.odometry_messages,
         "skipped_types": s.skipped_types,
         "bad_lines_skipped": s.bad_lines,
+        "odometry_dropped_for_jumps": s.odometry_jumps.count,
+        "odometry_interpolated_stale": s.stale_odometry.count,
     })
 }
 

@@ -17,7 +17,10 @@
 //!    otherwise from each, and the [`better`] fit wins. Where that fits under
 //!    `tracking.search_below_inlier_share` of the points and odometry disagrees with the
 //!    constant-velocity guess, also from the best coarse rotation around the latter (a stalled
-//!    wheel reads a turn the robot did not make).
+//!    wheel reads a turn the robot did not make); where it still fits poorly, with the
+//!    odometry prior, also from the odometry's motion since the last `ok` scan reversed
+//!    (`tracking.reversed_odometry`: odometry that reads the distance but not the direction),
+//!    a pose that must win clearly ([`Tracker::wins_clearly`]).
 //! 2. **Recovery** after a gap: when under `mapper.recover_below_inlier_share` of the points
 //!    are inliers (not with the odometry prior), a window search over the whole circle within
 //!    [`RECOVER_TRANSLATION_M`] of the anchor, ICP from its best pose and rival; kept only when
