@@ -448,6 +448,7 @@ fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
         crate::warnings::report_reader_warnings(s);
     }
     crate::warnings::warn_tracking(run.mapper.tracking_summary(), run.trajectory.len());
+    crate::warnings::warn_odometry(run.mapper.tracking_summary(), a.odometry);
     crate::warnings::warn_consistency(run.history.map_consistency.as_ref());
     if a.quiet {
         return;

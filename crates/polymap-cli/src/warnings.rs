@@ -66,6 +66,30 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
     }
 }
 
+/// Tracked travel below which the odometry's travel is not judged, metres: a few scans of a
+/// robot that hardly moved say nothing of its odometry.
+pub const ODOMETRY_CHECK_MIN_TRAVEL_M: f64 = 5.0;
+
+/// Says when the log's odometry travelled under half or over twice what the scans tracked `ok`
+/// did ([`TrackingSummary::odometry_disagrees_with_travel`]): odometry that is stuck (a log
+/// whose odometry fields are zeros), scaled or not the robot's. With `--odometry` (`used`)
+/// that odometry seeds tracking.
+pub fn warn_odometry(t: &TrackingSummary, used: bool) {
+    if !t.odometry_disagrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M) {
+        return;
+    }
+    let advice = match used {
+        true => "--odometry starts tracking from it: map without --odometry",
+        false => "do not map this log with --odometry",
+    };
+    eprintln!(
+        "polymap: warning: the log's odometry travelled {:.1} m where the scans tracked ok \
+         travelled {:.1} m: it is stuck, scaled or not this robot's; {advice} (summary.json: \
+         tracking.odometry_travel_m)",
+        t.odometry_travel_m, t.tracked_travel_m
+    );
+}
+
 /// Says when the map is likely inconsistent: its scans saw through its walls more than
 /// `warn_above` as often as they saw them (`observe.warn_seen_through_above`; see
 /// [`polymap::observe::seen_through_share`]).

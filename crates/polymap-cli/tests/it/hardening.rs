@@ -809,3 +809,55 @@ fn odometry_older_than_its_scan_is_interpolated_and_said_so() {
         "{summary}"
     );
 }
+
+/// A log whose odometry fields are all zeros (a converted log, a robot that did not record
+/// its odometry): the run says so, with the advice that fits `--odometry` or not; the log's
+/// own odometry raises nothing.
+#[test]
+fn odometry_that_never_moves_is_warned() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = office_log(dir.path());
+    let zeroed: String = fs::read_to_string(&whole)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut f: Vec<String> = l.split_whitespace().map(str::to_owned).collect();
+            if f.first().map(String::as_str) == Some("FLASER") {
+                let i = 2 + f[1].parse::<usize>().unwrap();
+                for v in &mut f[i..i + 6] {
+                    *v = "0".to_string();
+                }
+            }
+            f.join(" ") + "\n"
+        })
+        .collect();
+    let stuck = dir.path().join("stuck.clf");
+    fs::write(&stuck, zeroed).unwrap();
+    let run = |log: &Path, name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let o = crate::support::map_quietly(log, &out, extra);
+        assert!(o.status.success(), "{}", text(&o));
+        let summary: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        (String::from_utf8_lossy(&o.stderr).into_owned(), summary)
+    };
+    let (stderr, summary) = run(&stuck, "stuck", &[]);
+    assert!(
+        stderr.contains("the log's odometry travelled 0.0 m")
+            && stderr.contains("do not map this log with --odometry"),
+        "{stderr}"
+    );
+    assert_eq!(summary["tracking"]["odometry_travel_m"], 0.0, "{summary}");
+    let (stderr, _) = run(&stuck, "stuck-odometry", &["--odometry"]);
+    assert!(stderr.contains("map without --odometry"), "{stderr}");
+    let (stderr, summary) = run(&whole, "whole", &["--odometry"]);
+    assert!(!stderr.contains("odometry travelled"), "{stderr}");
+    let (odo, scans) = (
+        summary["tracking"]["odometry_travel_m"].as_f64().unwrap(),
+        summary["tracking"]["tracked_travel_m"].as_f64().unwrap(),
+    );
+    assert!(
+        scans > 20.0 && (odo / scans - 1.0).abs() < 0.1,
+        "{odo} {scans}"
+    );
+}

@@ -187,10 +187,12 @@ pub struct Mapper {
     recent: RecentMotion,
     lost_streak: u32,
     verdicts: TrackingSummary,
+    /// Whether the last scan was tracked `ok` (for the odometry's travel check).
+    last_was_ok: bool,
 }
 
 /// Verdict counts over a run, and the runs of consecutive lost scans.
-#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct TrackingSummary {
     /// Scans tracked confidently.
     pub ok: u32,
@@ -214,6 +216,15 @@ pub struct TrackingSummary {
     /// The first [`MAX_GAP_SCANS`] of them (scan indices, 0-based).
     #[serde(default)]
     pub gap_scans: Vec<u32>,
+    /// Where the log has odometry: how far it says the robot went between consecutive scans
+    /// both tracked `ok`, metres (summed step lengths)...
+    #[serde(default)]
+    pub odometry_travel_m: f64,
+    /// ...and how far the tracked poses went between the same scans, metres. Odometry that
+    /// reads under half or over twice the scans' travel is stuck, scaled or not this robot's
+    /// (the benchmark logs: within 2 %).
+    #[serde(default)]
+    pub tracked_travel_m: f64,
 }
 
 /// At most this many gap scans are listed in [`TrackingSummary::gap_scans`] (all are counted).
@@ -236,6 +247,23 @@ impl TrackingSummary {
         if self.gap_scans.len() < MAX_GAP_SCANS {
             self.gap_scans.push(t);
         }
+    }
+
+    /// Adds the step between two consecutive scans tracked `ok`: `odometry_m` as the log's
+    /// odometry reads it, `tracked_m` as tracked.
+    fn count_travel(&mut self, odometry_m: f64, tracked_m: f64) {
+        if odometry_m.is_finite() && tracked_m.is_finite() {
+            self.odometry_travel_m += odometry_m;
+            self.tracked_travel_m += tracked_m;
+        }
+    }
+
+    /// Whether the log's odometry travelled under half or over twice what the scans did, over
+    /// at least `min_travel_m` of tracked travel: odometry that is stuck, scaled or not the
+    /// robot's (see [`TrackingSummary::tracked_travel_m`]).
+    pub fn odometry_disagrees_with_travel(&self, min_travel_m: f64) -> bool {
+        let (odo, scans) = (self.odometry_travel_m, self.tracked_travel_m);
+        scans >= min_travel_m && (odo < 0.5 * scans || odo > 2.0 * scans)
     }
 
     fn count(&mut self, t: u32, verdict: Verdict, reason: Reason) {
@@ -287,6 +315,7 @@ impl Mapper {
             recent: RecentMotion::default(),
             lost_streak: 0,
             verdicts: TrackingSummary::default(),
+            last_was_ok: false,
             config,
         }
     }
@@ -532,6 +561,19 @@ impl Mapper {
             if after_gap {
                 self.verdicts.count_gap(i);
             }
+            // The log's odometry against the scans, between consecutive `ok` scans.
+            let ok = tracking.verdict == Verdict::Ok;
+            if let (true, Some(last), Some(a), Some(b)) = (
+                ok && self.last_was_ok,
+                self.last_pose,
+                self.last_odom,
+                scan.odom_from_robot,
+            ) {
+                let odometry_m = a.between(&b).translation().length();
+                let tracked_m = last.between(&pose).translation().length();
+                self.verdicts.count_travel(odometry_m, tracked_m);
+            }
+            self.last_was_ok = ok;
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
             if tracking.verdict == Verdict::Ok {
