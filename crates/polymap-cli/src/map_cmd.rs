@@ -374,6 +374,7 @@ fn reader_json(s: &CarmenStats) -> serde_json::Value {
         "bad_lines_skipped": s.bad_lines,
         "odometry_dropped_for_jumps": s.odometry_jumps.count,
         "odometry_interpolated_stale": s.stale_odometry.count,
+        "odometry_stale_kept": s.stale_odometry_kept.count,
     })
 }
 

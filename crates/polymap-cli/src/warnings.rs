@@ -84,8 +84,8 @@ pub fn warn_odometry(t: &TrackingSummary, used: bool) {
     };
     eprintln!(
         "polymap: warning: the log's odometry travelled {:.1} m where the scans tracked ok \
-         travelled {:.1} m: it is stuck, scaled or not this robot's; {advice} (summary.json: \
-         tracking.odometry_travel_m)",
+         travelled {:.1} m: the odometry is stuck, scaled or not this robot's (or tracking \
+         went wrong: look at the picture); {advice} (summary.json: tracking.odometry_travel_m)",
         t.odometry_travel_m, t.tracked_travel_m
     );
 }

@@ -57,6 +57,6 @@ mod tests_oddities;
 pub use error::{CarmenError, LineProblem};
 pub use geometry::{FlaserGeometry, flaser_beam_geometry};
 pub use messages::OdometryReading;
-pub use reader::{CarmenReader, CarmenRecord, ReaderOptions};
+pub use reader::{CarmenReader, CarmenRecord, MAX_HELD_SCANS, ReaderOptions};
 pub use stats::{CarmenStats, OTHER_TYPES, Oddity};
 pub use writer::{CarmenWriter, write_flaser_log};

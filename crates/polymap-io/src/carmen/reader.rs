@@ -16,6 +16,11 @@ use super::messages::{
 };
 use super::stats::CarmenStats;
 
+/// Most scans held for the `ODOM` message after a scan with stale odometry
+/// ([`ReaderOptions::stale_odometry_s`]); when that many wait, they go on as logged (a log
+/// whose odometry stopped for good is not held in memory).
+pub const MAX_HELD_SCANS: usize = 64;
+
 /// How a [`CarmenReader`] treats its input.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReaderOptions {
@@ -103,6 +108,8 @@ pub struct CarmenReader<R> {
     held: Vec<(RangeScan, u64, bool)>,
     /// Records ready to return, in file order, before any further line is read.
     ready: VecDeque<CarmenRecord>,
+    /// An error met while scans were held: returned after them (file order).
+    pending_error: Option<CarmenError>,
 }
 
 impl CarmenReader<BufReader<File>> {
@@ -139,6 +146,7 @@ impl<R: BufRead> CarmenReader<R> {
             last_odometry: None,
             held: Vec::new(),
             ready: VecDeque::new(),
+            pending_error: None,
         }
     }
 
@@ -165,8 +173,27 @@ impl<R: BufRead> CarmenReader<R> {
 
     /// The next scan or odometry message in file order, `Ok(None)` at the end of the log.
     ///
-    /// After an I/O error the reader is finished and returns `Ok(None)`.
+    /// An error comes after the records before it in the file (scans held for later
+    /// odometry, [`ReaderOptions::stale_odometry_s`], are returned first, as logged). After an
+    /// I/O error the reader is finished and returns `Ok(None)`.
     pub fn next_record(&mut self) -> Result<Option<CarmenRecord>, CarmenError> {
+        if let Some(record) = self.ready.pop_front() {
+            return Ok(Some(record));
+        }
+        if let Some(error) = self.pending_error.take() {
+            return Err(error);
+        }
+        match self.read_record() {
+            Err(error) if !self.held.is_empty() => {
+                self.pending_error = Some(error);
+                Ok(self.release_held())
+            }
+            other => other,
+        }
+    }
+
+    /// [`CarmenReader::next_record`] but for an error met while scans are held.
+    fn read_record(&mut self) -> Result<Option<CarmenRecord>, CarmenError> {
         loop {
             if let Some(record) = self.ready.pop_front() {
                 return Ok(Some(record));
@@ -332,6 +359,11 @@ impl<R: BufRead> CarmenReader<R> {
         };
         if stale || !self.held.is_empty() {
             self.held.push((scan, line, stale));
+            // Odometry that never resumes must not hold the log in memory: the scans go on
+            // as logged.
+            if self.held.len() >= MAX_HELD_SCANS {
+                return Ok(self.release_held());
+            }
             return Ok(None);
         }
         Ok(Some(CarmenRecord::Scan(scan)))
@@ -344,23 +376,43 @@ impl<R: BufRead> CarmenReader<R> {
         for (mut scan, line, stale) in std::mem::take(&mut self.held) {
             if let (true, Some((t0, pose0))) = (stale, self.last_odometry) {
                 let ts = scan.stamp.seconds;
-                if t0 < ts && ts <= t {
-                    scan.odom_from_robot = Some(pose0.interpolate(&pose, (ts - t0) / (t - t0)));
+                // Not across a jump of the odometry (a reset over the gap): the jump check
+                // of the scans after it says so.
+                let jump_m = (pose.translation() - pose0.translation()).length();
+                let between = pose0.interpolate(&pose, (ts - t0) / (t - t0));
+                if t0 < ts
+                    && ts <= t
+                    && jump_m <= self.options.max_odometry_jump_m
+                    && between.is_finite()
+                {
+                    scan.odom_from_robot = Some(between);
                     self.stats.stale_odometry.count(line, ts - t0);
+                } else {
+                    self.stats.stale_odometry_kept.count(line, ts - t0);
                 }
             }
             self.ready.push_back(CarmenRecord::Scan(scan));
         }
     }
 
-    /// At the end of the input: the first held scan, as logged (no later odometry says
-    /// better); the others follow on the next calls.
+    /// How many records wait to be returned (held or ready), for tests.
+    #[cfg(test)]
+    pub(super) fn waiting(&self) -> usize {
+        self.held.len() + self.ready.len()
+    }
+
+    /// At the end of the input, before an error, or when [`MAX_HELD_SCANS`] wait: the first held scan, as
+    /// logged (no later odometry says better); the others follow on the next calls.
     fn release_held(&mut self) -> Option<CarmenRecord> {
-        self.ready.extend(
-            std::mem::take(&mut self.held)
-                .into_iter()
-                .map(|(scan, _, _)| CarmenRecord::Scan(scan)),
-        );
+        for (scan, line, stale) in std::mem::take(&mut self.held) {
+            if stale {
+                let (t0, _) = self.last_odometry.unwrap_or_default();
+                self.stats
+                    .stale_odometry_kept
+                    .count(line, scan.stamp.seconds - t0);
+            }
+            self.ready.push_back(CarmenRecord::Scan(scan));
+        }
         self.ready.pop_front()
     }
 

@@ -50,6 +50,11 @@ pub struct CarmenStats {
     /// is interpolated at their stamp from the `ODOM` messages around it (`largest`: the
     /// oldest, seconds).
     pub stale_odometry: Oddity,
+    /// Scans whose odometry was as stale but kept as logged: no later `ODOM` message
+    /// bracketed their stamp (the log ended, the next message is stamped earlier, more than
+    /// [`MAX_HELD_SCANS`](super::MAX_HELD_SCANS) scans waited, an error came first) or the
+    /// odometry jumped over the gap (`largest`: the oldest, seconds).
+    pub stale_odometry_kept: Oddity,
 }
 
 /// How often something odd but readable occurred, and where first.
@@ -139,6 +144,15 @@ impl CarmenStats {
                 &format!(
                     "scan(s) whose odometry was up to {:.1} s older than the scan (odometry messages missing); their odometry is interpolated at their stamp from the ODOM messages around it",
                     self.stale_odometry.largest
+                ),
+            );
+        }
+        if self.stale_odometry_kept.count > 0 {
+            say(
+                &self.stale_odometry_kept,
+                &format!(
+                    "scan(s) whose odometry was up to {:.1} s older than the scan (odometry messages missing) and no later ODOM message says better; their odometry is as logged",
+                    self.stale_odometry_kept.largest
                 ),
             );
         }

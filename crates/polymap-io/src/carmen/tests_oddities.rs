@@ -206,8 +206,24 @@ fn odometry_is_left_as_logged_unless_it_is_the_last_message_and_older_than_the_b
         let x = scans[0].odom_from_robot.unwrap().x_m;
         assert!(x == 0.1 || x == 0.2, "case {i}: {x}");
         assert_eq!(stats.stale_odometry.count, 0, "case {i}");
-        assert!(stats.warnings().is_empty(), "case {i}");
+        // Stale and not mended is said so; fresh odometry raises nothing.
+        let kept = u64::from(i == 2);
+        assert_eq!(stats.stale_odometry_kept.count, kept, "case {i}");
+        assert_eq!(stats.warnings().len() as u64, kept, "case {i}");
     }
+    // Odometry that jumped over the gap (a reset): not interpolated across the jump.
+    let text = [
+        odom(0.1, 0.0, 1.1),
+        scan_at(0.1, 0.0, 4.0),
+        odom(500.0, 0.0, 4.1),
+    ]
+    .concat();
+    let (scans, stats) = read_all(&text);
+    assert_eq!(scans[0].odom_from_robot.unwrap().x_m, 0.1);
+    assert_eq!(
+        (stats.stale_odometry.count, stats.stale_odometry_kept.count),
+        (0, 1)
+    );
 }
 
 #[test]
@@ -227,7 +243,33 @@ fn scans_held_for_odometry_that_never_comes_are_returned_as_logged_in_file_order
             .iter()
             .all(|s| s.odom_from_robot == Some(Pose2::new(0.1, 0.0, 0.0)))
     );
-    assert_eq!(stats.stale_odometry.count, 0);
+    // Both are stale (the last message's odometry, over 1 s old), neither mended.
+    assert_eq!(
+        (stats.stale_odometry.count, stats.stale_odometry_kept.count),
+        (0, 2)
+    );
+    assert!(
+        stats.warnings()[0].contains("as logged"),
+        "{:?}",
+        stats.warnings()
+    );
+    // Odometry that never resumes: the scans go on as logged, never more than
+    // `MAX_HELD_SCANS` of them waiting.
+    let mut text = odom(0.1, 0.0, 1.1);
+    for k in 0..3 * MAX_HELD_SCANS {
+        text += &scan_at(0.1, 0.0, 4.0 + 0.1 * k as f64);
+    }
+    text += &odom(3.1, 1.5, 100.0);
+    let mut r = reader(&text, ReaderOptions::default());
+    let mut most_waiting = 0;
+    let mut stamps = Vec::new();
+    while let Some(scan) = r.next_scan().unwrap() {
+        stamps.push(scan.stamp.seconds);
+        most_waiting = most_waiting.max(r.waiting());
+    }
+    assert_eq!(stamps.len(), 3 * MAX_HELD_SCANS);
+    assert!(stamps.windows(2).all(|w| w[0] < w[1]), "file order");
+    assert!(most_waiting < MAX_HELD_SCANS, "{most_waiting}");
     // Held across a skipped bad line, and still interpolated by the message after it.
     let text = [
         odom(0.1, 0.0, 1.1),
@@ -248,4 +290,19 @@ fn scans_held_for_odometry_that_never_comes_are_returned_as_logged_in_file_order
         (r.stats().bad_lines, r.stats().stale_odometry.count),
         (1, 1)
     );
+    // A bad line that stops the reading: the held scans before it come first, as logged.
+    let text = [
+        odom(0.1, 0.0, 1.1),
+        scan_at(0.1, 0.0, 4.0),
+        scan_at(0.1, 0.0, 4.2),
+        "FLASER 3 1.0\n".to_string(),
+        odom(3.1, 1.5, 4.3),
+    ]
+    .concat();
+    let mut r = reader(&text, ReaderOptions::default());
+    let first = r.next_scan().unwrap().unwrap();
+    let second = r.next_scan().unwrap().unwrap();
+    assert_eq!((first.stamp.seconds, second.stamp.seconds), (4.0, 4.2));
+    let e = r.next_scan().unwrap_err();
+    assert_eq!(e.line(), Some(4), "{e}");
 }

@@ -105,6 +105,9 @@ pub struct TrackInput<'a> {
     pub unobserved_to: Pose2,
     /// The pose of the last scan tracked `ok`, map frame (the guess when there is none).
     pub reference: Pose2,
+    /// The pose of the last scan tracked `ok`, map frame (the guess when there is none),
+    /// whatever the stamps say (unlike [`TrackInput::reference`]).
+    pub last_ok: Pose2,
     /// Where ICP also starts after a lost scan, map frame: [`TrackInput::reference`], with the
     /// odometry prior moved by the odometry since that scan (the lost scans' poses, which the
     /// guess builds on, are poor fits; the bare last `ok` pose lies where the robot was).
@@ -839,20 +842,20 @@ impl Tracker<'_> {
             .then_some(cv)
     }
 
-    /// With the odometry prior (`tracking.reversed_odometry`), the last `ok` pose moved by
-    /// the odometry's motion since then ([`TrackInput::restart`]) with its translation
-    /// reversed and its turn kept; `None` for a motion under `tracking.search_above_step_m`
-    /// (ICP's basin covers it reversed).
+    /// With the odometry prior (`tracking.reversed_odometry`), the last `ok` pose
+    /// ([`TrackInput::last_ok`]) moved by the odometry's motion since then (to
+    /// [`TrackInput::restart`]) with its translation reversed and its turn kept; `None` for a
+    /// motion under `tracking.search_above_step_m` (ICP's basin covers it reversed).
     fn reversed_odometry(&self) -> Option<Pose2> {
         let (input, tracking) = (self.input, self.config.tracking);
         let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
         if !(odometry && tracking.reversed_odometry) {
             return None;
         }
-        let d = input.reference.between(&input.restart);
+        let d = input.last_ok.between(&input.restart);
         (d.translation().length() >= tracking.search_above_step_m).then(|| {
             input
-                .reference
+                .last_ok
                 .compose(&Pose2::new(-d.x_m, -d.y_m, d.theta_rad))
         })
     }
@@ -1078,6 +1081,7 @@ mod tests {
             anchor: guess,
             unobserved_to: guess,
             reference: guess,
+            last_ok: guess,
             restart: guess,
             dt_s: None,
             after_gap: false,
@@ -1731,7 +1735,7 @@ mod tests {
             };
             with_odometry_tracker((truth, read, read), &align, &tracking, |t| {
                 let input = TrackInput {
-                    reference: last,
+                    last_ok: last,
                     restart: read,
                     ..*t.input
                 };
@@ -1754,7 +1758,7 @@ mod tests {
         let tracking = TrackParams::default();
         let kept = with_odometry_tracker((truth, truth, truth), &align, &tracking, |t| {
             let input = TrackInput {
-                reference: last,
+                last_ok: last,
                 restart: truth,
                 ..*t.input
             };

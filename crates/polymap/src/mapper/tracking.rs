@@ -106,6 +106,7 @@ impl Mapper {
             anchor,
             unobserved_to,
             reference,
+            last_ok: last_ok.unwrap_or(guess),
             restart,
             dt_s,
             after_gap: !odometry && self.observed.gap_scale(scan.stamp_s) > 1.0,
