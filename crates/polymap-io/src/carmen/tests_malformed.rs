@@ -324,3 +324,48 @@ proptest! {
         exercise(&bytes, true);
     }
 }
+
+/// A log of `ODOM` and `FLASER` lines from `(is_odometry, step of the stamp, same pose)`
+/// triples (stamps may stall or go back; a scan may carry the last message's pose), and each
+/// line's kind and stamp text in file order.
+fn odometry_and_scans(lines: &[(bool, f64, bool)]) -> (String, Vec<(bool, String)>) {
+    let (mut text, mut order) = (String::new(), Vec::new());
+    let (mut t, mut x) = (100.0, 0.0);
+    for (i, &(is_odometry, step, same)) in lines.iter().enumerate() {
+        t += step;
+        let stamp = format!("{:.6}", t + i as f64 * 1e-6);
+        if !same {
+            x += 0.1;
+        }
+        text += &match is_odometry {
+            true => format!("ODOM {x} 0 0 0 0 0 {stamp} h 0\n"),
+            false => format!("FLASER 2 1.0 1.0 0 0 0 {x} 0 0 {stamp} h 0\n"),
+        };
+        order.push((is_odometry, stamp));
+    }
+    (text, order)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// Scans held for later odometry (stale odometry, `ReaderOptions::stale_odometry_s`) come
+    /// back, every one, in file order among the odometry messages.
+    #[test]
+    fn held_scans_keep_the_file_order(
+        lines in proptest::collection::vec((any::<bool>(), -1.0f64..3.0, any::<bool>()), 0..300)
+    ) {
+        let (text, order) = odometry_and_scans(&lines);
+        let mut r = reader(&text, ReaderOptions::default());
+        let mut got = Vec::new();
+        while let Some(record) = r.next_record().unwrap() {
+            got.push(match record {
+                CarmenRecord::Odometry(o) => (true, o.stamp.text),
+                CarmenRecord::Scan(s) => (false, s.stamp.text),
+            });
+        }
+        prop_assert_eq!(got, order);
+        let s = r.stats();
+        prop_assert!(s.stale_odometry.count + s.stale_odometry_kept.count <= s.scans);
+    }
+}
