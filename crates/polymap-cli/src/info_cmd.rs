@@ -129,10 +129,12 @@ fn carmen_info(a: &InfoArgs) -> Result<()> {
     let mut first: Option<RangeScan> = None;
     let mut span: Option<(f64, f64)> = None;
     let mut beams = BTreeMap::<usize, u64>::new();
+    let mut with_odometry = 0u64;
     while let Some(record) = reader.next_record()? {
         let CarmenRecord::Scan(scan) = record else {
             continue;
         };
+        with_odometry += u64::from(scan.odom_from_robot.is_some());
         let t = scan.stamp.seconds;
         span = Some(span.map_or((t, t), |(lo, hi)| (lo.min(t), hi.max(t))));
         *beams.entry(scan.ranges_m.len()).or_insert(0) += 1;
@@ -172,13 +174,18 @@ fn carmen_info(a: &InfoArgs) -> Result<()> {
         scan.max_range_m
     );
     say!("  stamps {lo:.6} to {hi:.6} ({:.3} s)", hi - lo);
-    say!(
-        "odometry: {}",
-        if scan.odom_from_robot.is_some() {
-            "in every scan line (map with --odometry to use it)"
-        } else {
-            "none"
-        }
-    );
+    let odometry = match with_odometry {
+        0 => "none".to_string(),
+        n if n == s.scans => "in every scan line (map with --odometry to use it)".to_string(),
+        n => format!(
+            "in {n} of {} scan lines (map with --odometry to use it)",
+            s.scans
+        ),
+    };
+    say!("odometry: {odometry}");
+    // What the reader found odd (stamps going back, stale odometry, ...), as `map` warns.
+    for w in s.warnings() {
+        say!("  {w}");
+    }
     Ok(())
 }

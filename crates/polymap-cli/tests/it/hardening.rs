@@ -798,6 +798,13 @@ fn odometry_older_than_its_scan_is_interpolated_and_said_so() {
         stderr.contains("1 scan(s) whose odometry was up to 1.6 s older than the scan"),
         "{stderr}"
     );
+    // `info` says it too, beside the scans with odometry.
+    let info = polymap(&["info", dir.path().join("stale.clf").to_str().unwrap()]);
+    let info = String::from_utf8_lossy(&info.stdout);
+    assert!(
+        info.contains("older than the scan") && info.contains("odometry: in every scan line"),
+        "{info}"
+    );
     assert_eq!(
         summary["reader"]["odometry_interpolated_stale"], 1,
         "{summary}"
