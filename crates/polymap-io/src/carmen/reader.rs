@@ -379,16 +379,15 @@ impl<R: BufRead> CarmenReader<R> {
                 // Not across a jump of the odometry (a reset over the gap): the jump check
                 // of the scans after it says so.
                 let jump_m = (pose.translation() - pose0.translation()).length();
-                let between = pose0.interpolate(&pose, (ts - t0) / (t - t0));
-                if t0 < ts
-                    && ts <= t
-                    && jump_m <= self.options.max_odometry_jump_m
-                    && between.is_finite()
-                {
-                    scan.odom_from_robot = Some(between);
-                    self.stats.stale_odometry.count(line, ts - t0);
-                } else {
-                    self.stats.stale_odometry_kept.count(line, ts - t0);
+                let between = (t0 < ts && ts <= t && jump_m <= self.options.max_odometry_jump_m)
+                    .then(|| pose0.interpolate(&pose, (ts - t0) / (t - t0)))
+                    .filter(Pose2::is_finite);
+                match between {
+                    Some(odometry) => {
+                        scan.odom_from_robot = Some(odometry);
+                        self.stats.stale_odometry.count(line, ts - t0);
+                    }
+                    None => self.stats.stale_odometry_kept.count(line, ts - t0),
                 }
             }
             self.ready.push_back(CarmenRecord::Scan(scan));
@@ -401,8 +400,9 @@ impl<R: BufRead> CarmenReader<R> {
         self.held.len() + self.ready.len()
     }
 
-    /// At the end of the input, before an error, or when [`MAX_HELD_SCANS`] wait: the first held scan, as
-    /// logged (no later odometry says better); the others follow on the next calls.
+    /// At the end of the input, before an error, or when [`MAX_HELD_SCANS`] wait: the first
+    /// held scan, as logged (no later odometry says better); the others follow on the next
+    /// calls.
     fn release_held(&mut self) -> Option<CarmenRecord> {
         for (scan, line, stale) in std::mem::take(&mut self.held) {
             if stale {

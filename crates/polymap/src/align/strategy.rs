@@ -786,15 +786,11 @@ impl Tracker<'_> {
         // A pose away from the prediction needs more evidence than one near it: half again
         // the inliers, a fit that would need no search, and no distinct pose nearly as good
         // (a building of alike rooms fits a scan turned by a right angle almost as well).
-        let n = self.points.len() as f64;
         let rival = all.iter().any(|r| {
             tracking.apart(&best.map_from_robot, &r.map_from_robot)
                 && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
         });
-        let wins = best.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
-            && best.inliers as f64 >= tracking.search_below_inlier_share * n
-            && !rival;
-        wins.then_some(best)
+        (self.wins_by_ratio(&best, current) && !rival).then_some(best)
     }
 
     /// One ICP run from a pose far from the guess: [`Tracker::run`] with the map segments near
@@ -871,17 +867,23 @@ impl Tracker<'_> {
         better(from_cv, from_odometry) && !self.fits_poorly(from_cv)
     }
 
-    /// Whether `other`, a pose away from the prediction, beats `current` clearly: by
-    /// `tracking.corner_win_ratio` times its inliers (plus two), with at least
-    /// `tracking.search_below_inlier_share` of the points, and every direction observed with
-    /// at least `tracking.weak_below_information`.
-    fn wins_clearly(&self, other: &AlignResult, current: &AlignResult) -> bool {
+    /// Whether `other`, a pose away from the prediction, has `tracking.corner_win_ratio`
+    /// times `current`'s inliers (plus two) and at least `tracking.search_below_inlier_share`
+    /// of the points (the corner poses' rule).
+    fn wins_by_ratio(&self, other: &AlignResult, current: &AlignResult) -> bool {
         let tracking = self.config.tracking;
         let n = self.points.len() as f64;
         other.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
             && other.inliers as f64 >= tracking.search_below_inlier_share * n
+    }
+
+    /// Whether `other`, a pose away from the prediction, beats `current` clearly: it wins by
+    /// ratio ([`Tracker::wins_by_ratio`]) and observes every direction with at least
+    /// `tracking.weak_below_information`.
+    fn wins_clearly(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        self.wins_by_ratio(other, current)
             && other.weak_directions == 0
-            && other.translation_information.weakest >= tracking.weak_below_information
+            && other.translation_information.weakest >= self.config.tracking.weak_below_information
     }
 
     /// Where ICP may start, before [`MapperParams::icp_from_best_start_only`] picks one: the

@@ -187,8 +187,6 @@ pub struct Mapper {
     recent: RecentMotion,
     lost_streak: u32,
     verdicts: TrackingSummary,
-    /// Whether the last scan was tracked `ok` (for the odometry's travel check).
-    last_was_ok: bool,
 }
 
 /// Verdict counts over a run, and the runs of consecutive lost scans.
@@ -315,7 +313,6 @@ impl Mapper {
             recent: RecentMotion::default(),
             lost_streak: 0,
             verdicts: TrackingSummary::default(),
-            last_was_ok: false,
             config,
         }
     }
@@ -563,8 +560,11 @@ impl Mapper {
             }
             // The log's odometry against the scans, between consecutive `ok` scans.
             let ok = tracking.verdict == Verdict::Ok;
+            let last_was_ok = self
+                .last_ok
+                .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
             if let (true, Some(last), Some(a), Some(b)) = (
-                ok && self.last_was_ok,
+                ok && last_was_ok,
                 self.last_pose,
                 self.last_odom,
                 scan.odom_from_robot,
@@ -573,7 +573,6 @@ impl Mapper {
                 let tracked_m = last.between(&pose).translation().length();
                 self.verdicts.count_travel(odometry_m, tracked_m);
             }
-            self.last_was_ok = ok;
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
             if tracking.verdict == Verdict::Ok {
