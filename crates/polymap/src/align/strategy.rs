@@ -229,6 +229,13 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::Ambiguous;
     }
+    if tracking.verdict == Verdict::Ok
+        && let Some(axis_deg) = result.as_ref().and_then(|r| tracker.slowed(r))
+    {
+        tracking.verdict = Verdict::Weak;
+        tracking.reason = Reason::Slowed;
+        tracking.weak_direction_deg = Some(axis_deg);
+    }
     (result, tracking)
 }
 
@@ -728,6 +735,28 @@ impl Tracker<'_> {
         let axis = Vec2::new(a.cos(), a.sin());
         let moved = result.map_from_robot.translation() - input.anchor.translation();
         (on && moved.dot(axis).abs() < STOPPED_BELOW_SHARE_OF_STEP * recent).then_some(axis)
+    }
+
+    /// The direction (map frame, degrees) along which `result` fell short of the last observed
+    /// motion on weak evidence (`tracking.slowed_below_information`): without the odometry
+    /// prior, its least observed translation has less information than that, the last
+    /// observed motion ([`TrackInput::unobserved_to`]) went at least `search_above_step_m`
+    /// along it, and `result` moved less than [`STOPPED_BELOW_SHARE_OF_STEP`] of that along
+    /// it from the anchor.
+    fn slowed(&self, result: &AlignResult) -> Option<f64> {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let info = result.translation_information;
+        let on = tracking.slowed_below_information > 0.0
+            && self.config.starts.motion_prior != MotionPrior::Odometry
+            && info.weakest < tracking.slowed_below_information;
+        let a = info.weakest_deg.to_radians();
+        let axis = Vec2::new(a.cos(), a.sin());
+        let from = input.anchor.translation();
+        let expected = (input.unobserved_to.translation() - from).dot(axis);
+        let moved = (result.map_from_robot.translation() - from).dot(axis);
+        let short = expected.abs() >= tracking.search_above_step_m
+            && moved * expected.signum() < STOPPED_BELOW_SHARE_OF_STEP * expected.abs();
+        (on && short).then_some(info.weakest_deg)
     }
 
     /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
@@ -2047,6 +2076,92 @@ mod tests {
             assert!(check(&fast, &poor, &defaults).is_none());
             assert!(check(&fast, &stopped, &odometry).is_none());
         });
+    }
+
+    #[test]
+    fn a_fast_robot_put_near_no_motion_on_weak_evidence_is_called_slowed() {
+        // The robot went 0.8 m per scan when last observed; ICP put this scan near "no motion"
+        // along the corridor, observing that direction with little information: the verdict
+        // must not be `ok` on such evidence.
+        let world = framed_corridor();
+        let map = map_of(&world, 0.5);
+        let scene = (
+            &world[..],
+            &map,
+            Pose2::new(0.8, 0.0, 0.0),
+            Pose2::IDENTITY,
+            0,
+        );
+        let defaults = TrackParams::default();
+        let off = TrackParams {
+            slowed_below_information: 0.0,
+            ..TrackParams::default()
+        };
+        let fit = with_tracker(AlignMethod::PointToSegment, scene, &defaults, |t| {
+            t.run(&[], Pose2::IDENTITY)
+        });
+        let at = |x_m: f64, weakest: f64| AlignResult {
+            map_from_robot: Pose2::new(x_m, 0.02, 0.0),
+            weak_directions: 0,
+            weak_direction_deg: None,
+            translation_information: TranslationInformation {
+                weakest,
+                strongest: 100.0,
+                weakest_deg: 0.0,
+            },
+            ..fit
+        };
+        let odometry = MapperParams {
+            motion_prior: MotionPrior::Odometry,
+            ..MapperParams::default()
+        };
+        let defaults_starts = MapperParams::default();
+        let check = |tracking: &TrackParams,
+                     observed_m: f64,
+                     result: &AlignResult,
+                     starts: &MapperParams| {
+            with_tracker(AlignMethod::PointToSegment, scene, tracking, |t| {
+                let input = TrackInput {
+                    unobserved_to: Pose2::new(observed_m, 0.0, 0.0),
+                    ..*t.input
+                };
+                let config = TrackConfig {
+                    starts,
+                    ..*t.config
+                };
+                let tracker = Tracker {
+                    input: &input,
+                    config: &config,
+                    ..*t
+                };
+                tracker.slowed(result)
+            })
+        };
+        let stopped = at(0.05, 8.0);
+        assert_eq!(check(&defaults, 0.8, &stopped, &defaults_starts), Some(0.0));
+        // Backwards counts as short too; the sign of the axis does not matter.
+        assert!(check(&defaults, 0.8, &at(-0.3, 8.0), &defaults_starts).is_some());
+        assert!(check(&defaults, -0.8, &at(0.05, 8.0), &defaults_starts).is_some());
+        // Not for a step observed with enough information, a pose that went at least half
+        // the observed motion, a slow robot, with the odometry prior (its guess is evidence of
+        // the motion), or with the key off.
+        assert!(check(&defaults, 0.8, &at(0.05, 20.0), &defaults_starts).is_none());
+        assert!(check(&defaults, 0.8, &at(0.45, 8.0), &defaults_starts).is_none());
+        assert!(check(&defaults, 0.1, &stopped, &defaults_starts).is_none());
+        assert!(check(&defaults, 0.8, &stopped, &odometry).is_none());
+        assert!(check(&off, 0.8, &stopped, &defaults_starts).is_none());
+        // The verdict says so, and tracking carries on from the scan as from an `ok` one.
+        let slowed = Tracking {
+            verdict: Verdict::Weak,
+            reason: Reason::Slowed,
+            ..Tracking::default()
+        };
+        assert!(slowed.carries_tracking());
+        let weakly = Tracking {
+            reason: Reason::WeaklyObserved,
+            ..slowed
+        };
+        assert!(!weakly.carries_tracking());
     }
 
     #[test]

@@ -103,6 +103,13 @@ pub struct TrackParams {
     /// direction (a corridor with little across it) the fit may slide on small errors of the
     /// map. 0 turns it off.
     pub weak_below_information: f64,
+    /// Without the odometry prior: a scan otherwise `ok` whose least observed translation has
+    /// less information than this, and that ICP moved along that direction by less than
+    /// [`crate::align::STOPPED_BELOW_SHARE_OF_STEP`] of the last observed motion along it
+    /// (itself at least `search_above_step_m`), is `weak` (`slowed`): a fast robot's step
+    /// along a corridor that a few door frames pulled back towards "no motion". 0 turns it
+    /// off.
+    pub slowed_below_information: f64,
     /// ICP from the search's pose replaces ICP from the prediction only with more inliers
     /// than this share above the latter's (plus two).
     pub search_win_margin: f64,
@@ -236,6 +243,7 @@ impl Default for TrackParams {
             lost_below_inlier_ratio: 0.5,
             weak_below_inlier_ratio: 0.6,
             weak_below_information: 5.0,
+            slowed_below_information: 15.0,
             search_win_margin: 0.1,
             search_unobserved: true,
             unobserved_reach_m: 1.0,
@@ -325,6 +333,12 @@ impl TrackParams {
                 0.0,
                 1e6,
             )
+            .within(
+                "slowed_below_information",
+                self.slowed_below_information,
+                0.0,
+                1e6,
+            )
             .within("search_win_margin", self.search_win_margin, 0.0, 10.0)
             .within("unobserved_reach_m", self.unobserved_reach_m, 0.0, 3.0)
             .rule(
@@ -394,6 +408,10 @@ pub enum Reason {
     /// Enough points fit, but one direction is observed by few of them (a corridor with little
     /// across it): the pose may have slid along it (`tracking.weak_below_information`).
     WeaklyObserved,
+    /// Enough points fit, but a robot that moved fast lately was put near "no motion" along a
+    /// direction observed by few of them (`tracking.slowed_below_information`): its step may
+    /// have been pulled short.
+    Slowed,
     /// Enough points fit to keep the scan, too few to trust it.
     PoorFit,
     /// The window search found a distinct pose that explains the scan about as well (on its
@@ -466,6 +484,17 @@ impl TrackParams {
 }
 
 impl Tracking {
+    /// Whether the mapper carries tracking on from this scan as from an `ok` one (the speed
+    /// observed, the last `ok` pose that bounds the reach, the support its sightings give the
+    /// walls, the odometry's travel check): `ok`, or `weak` only as `slowed`. That verdict
+    /// tells the user the step may be short; tracking from it is unchanged, since keeping
+    /// such scans out of that state reshuffled the sparse runs (session 21, ARCHITECTURE:
+    /// "A fast robot slowed on weak evidence").
+    pub fn carries_tracking(&self) -> bool {
+        self.verdict == Verdict::Ok
+            || (self.verdict == Verdict::Weak && self.reason == Reason::Slowed)
+    }
+
     /// Whether the scan's segments enter the map: never for a `lost` scan; not for one `weak`
     /// for a poor fit or an ambiguous search unless `merge_doubtful_scans`; not for one placed
     /// by a corner hypothesis unless it is `ok` (a pose away from the prediction enters the

@@ -547,7 +547,7 @@ impl Mapper {
             // Observed: tracked `ok` with every direction observed; a motion between two
             // observed scans is evidence of the robot's speed.
             let observed =
-                tracking.verdict == Verdict::Ok && align.is_some_and(|a| a.weak_directions == 0);
+                tracking.carries_tracking() && align.is_some_and(|a| a.weak_directions == 0);
             if let Some(last) = self.last_pose {
                 self.recent.push(&last, &pose);
             }
@@ -559,7 +559,7 @@ impl Mapper {
                 self.verdicts.count_gap(i);
             }
             // The log's odometry against the scans, between consecutive `ok` scans.
-            let ok = tracking.verdict == Verdict::Ok;
+            let ok = tracking.carries_tracking();
             let last_was_ok = self
                 .last_ok
                 .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
@@ -575,7 +575,7 @@ impl Mapper {
             }
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
-            if tracking.verdict == Verdict::Ok {
+            if tracking.carries_tracking() {
                 self.last_ok = Some((t, pose, scan.stamp_s));
                 self.last_ok_odom = scan.odom_from_robot;
             }
@@ -601,7 +601,7 @@ impl Mapper {
         // Only a scan tracked `ok` adds to the support that holds a wall in place: a `weak`
         // scan's pose may have slid along a wall it sees, and its sightings would anchor
         // what it placed there.
-        let confirmed = tracking.verdict == Verdict::Ok;
+        let confirmed = tracking.carries_tracking();
         let scan_in_map: Vec<Segment> = if !enters {
             Vec::new()
         } else {
