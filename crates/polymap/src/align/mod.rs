@@ -244,6 +244,14 @@ pub struct TranslationInformation {
     pub weakest_deg: f64,
 }
 
+impl TranslationInformation {
+    /// The least observed direction as a map-frame unit vector.
+    pub fn weakest_axis(&self) -> Vec2 {
+        let a = self.weakest_deg.to_radians();
+        Vec2::new(a.cos(), a.sin())
+    }
+}
+
 /// Nearest-segment queries against a set of map segments (map frame).
 pub trait SegmentLookup {
     /// The segment nearest to `p` within `max_distance_m`, with the projection of `p` onto it.

@@ -432,8 +432,7 @@ impl Tracker<'_> {
         if !on {
             return None;
         }
-        let a = info.weakest_deg.to_radians();
-        let axis = Vec2::new(a.cos(), a.sin());
+        let axis = info.weakest_axis();
         let apart = input.unobserved_to.translation() - result.map_from_robot.translation();
         if apart.dot(axis).abs() <= PRIOR_OVER_WEAK_M {
             return None;
@@ -731,8 +730,7 @@ impl Tracker<'_> {
             // direction, and "agrees across" says nothing about it.
             && verdict(Some(result), self.points.len(), false, tracking).reason
                 == Reason::WeaklyObserved;
-        let a = info.weakest_deg.to_radians();
-        let axis = Vec2::new(a.cos(), a.sin());
+        let axis = info.weakest_axis();
         let moved = result.map_from_robot.translation() - input.anchor.translation();
         (on && moved.dot(axis).abs() < STOPPED_BELOW_SHARE_OF_STEP * recent).then_some(axis)
     }
@@ -749,8 +747,7 @@ impl Tracker<'_> {
         let on = tracking.slowed_below_information > 0.0
             && self.config.starts.motion_prior != MotionPrior::Odometry
             && info.weakest < tracking.slowed_below_information;
-        let a = info.weakest_deg.to_radians();
-        let axis = Vec2::new(a.cos(), a.sin());
+        let axis = info.weakest_axis();
         let from = input.anchor.translation();
         let expected = (input.unobserved_to.translation() - from).dot(axis);
         let moved = (result.map_from_robot.translation() - from).dot(axis);
@@ -2004,6 +2001,21 @@ mod tests {
         assert!(tracked.1.search_won, "{:?}", tracked.1);
     }
 
+    /// `r` with every direction observable and the x axis observed with `weakest` information
+    /// only.
+    fn weakly_along_x(r: AlignResult, weakest: f64) -> AlignResult {
+        AlignResult {
+            weak_directions: 0,
+            weak_direction_deg: None,
+            translation_information: TranslationInformation {
+                weakest,
+                strongest: 100.0,
+                weakest_deg: 0.0,
+            },
+            ..r
+        }
+    }
+
     #[test]
     fn a_fast_robot_icp_stops_on_weak_evidence_is_checked_along_the_axis() {
         // The robot went on at its recent 0.8 m per scan along the framed corridor; ICP from "no
@@ -2021,22 +2033,12 @@ mod tests {
             r
         };
         let (fast, slow) = (recent(0.8), recent(0.1));
-        let weakly = |r: AlignResult, weakest: f64| AlignResult {
-            weak_directions: 0,
-            weak_direction_deg: None,
-            translation_information: TranslationInformation {
-                weakest,
-                strongest: 100.0,
-                weakest_deg: 0.0,
-            },
-            ..r
-        };
         let odometry = MapperParams {
             motion_prior: MotionPrior::Odometry,
             ..MapperParams::default()
         };
         with_tracker(AlignMethod::PointToSegment, scene, &tracking, |t| {
-            let stopped = weakly(t.run(&[], Pose2::IDENTITY), 2.0);
+            let stopped = weakly_along_x(t.run(&[], Pose2::IDENTITY), 2.0);
             assert!(stopped.map_from_robot.x_m.abs() < 0.05, "{stopped:?}");
             let check = |recent: &RecentMotion, result: &AlignResult, starts: &MapperParams| {
                 let input = TrackInput { recent, ..*t.input };
@@ -2063,7 +2065,7 @@ mod tests {
             // recent step along the axis, a poor fit, or with the odometry prior (its guess is
             // evidence).
             assert!(check(&slow, &stopped, &defaults).is_none());
-            assert!(check(&fast, &weakly(stopped, 50.0), &defaults).is_none());
+            assert!(check(&fast, &weakly_along_x(stopped, 50.0), &defaults).is_none());
             let half_way = AlignResult {
                 map_from_robot: Pose2::new(0.45, 0.0, 0.0),
                 ..stopped
@@ -2102,14 +2104,7 @@ mod tests {
         });
         let at = |x_m: f64, weakest: f64| AlignResult {
             map_from_robot: Pose2::new(x_m, 0.02, 0.0),
-            weak_directions: 0,
-            weak_direction_deg: None,
-            translation_information: TranslationInformation {
-                weakest,
-                strongest: 100.0,
-                weakest_deg: 0.0,
-            },
-            ..fit
+            ..weakly_along_x(fit, weakest)
         };
         let odometry = MapperParams {
             motion_prior: MotionPrior::Odometry,

@@ -488,8 +488,8 @@ impl Tracking {
     /// observed, the last `ok` pose that bounds the reach, the support its sightings give the
     /// walls, the odometry's travel check): `ok`, or `weak` only as `slowed`. That verdict
     /// tells the user the step may be short; tracking from it is unchanged, since keeping
-    /// such scans out of that state reshuffled the sparse runs (session 21, ARCHITECTURE:
-    /// "A fast robot slowed on weak evidence").
+    /// such scans out of that state reshuffled the sparse runs (session 21; ARCHITECTURE,
+    /// "Verdict", `slowed`).
     pub fn carries_tracking(&self) -> bool {
         self.verdict == Verdict::Ok
             || (self.verdict == Verdict::Weak && self.reason == Reason::Slowed)

@@ -544,8 +544,9 @@ impl Mapper {
         let placed = self.placement == Placement::Placed;
         let mut after_gap = false;
         if placed {
-            // Observed: tracked `ok` with every direction observed; a motion between two
-            // observed scans is evidence of the robot's speed.
+            // Observed: tracked `ok` (or only `slowed`, see `Tracking::carries_tracking`) with
+            // every direction observed; a motion between two observed scans is evidence of the
+            // robot's speed.
             let observed =
                 tracking.carries_tracking() && align.is_some_and(|a| a.weak_directions == 0);
             if let Some(last) = self.last_pose {
@@ -598,9 +599,9 @@ impl Mapper {
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
         // which is not where it is sure to be: one wrong scan in the map misleads the next.
-        // Only a scan tracked `ok` adds to the support that holds a wall in place: a `weak`
-        // scan's pose may have slid along a wall it sees, and its sightings would anchor
-        // what it placed there.
+        // Only a scan tracked `ok` (or only `slowed`) adds to the support that holds a wall in
+        // place: a `weak` scan's pose may have slid along a wall it sees, and its sightings
+        // would anchor what it placed there.
         let confirmed = tracking.carries_tracking();
         let scan_in_map: Vec<Segment> = if !enters {
             Vec::new()
