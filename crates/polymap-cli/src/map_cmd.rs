@@ -448,7 +448,11 @@ fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
     if let Some(s) = stats {
         crate::warnings::report_reader_warnings(s);
     }
-    crate::warnings::warn_tracking(run.mapper.tracking_summary(), run.trajectory.len());
+    crate::warnings::warn_tracking(
+        run.mapper.tracking_summary(),
+        run.trajectory.len(),
+        run.mapper.config().tracking.odometry_witness_m,
+    );
     crate::warnings::warn_odometry(run.mapper.tracking_summary(), a.odometry);
     crate::warnings::warn_consistency(run.history.map_consistency.as_ref());
     if a.quiet {

@@ -1,6 +1,6 @@
 //! Counted warnings about what the reader accepted but found odd.
 
-use polymap::mapper::TrackingSummary;
+use polymap::mapper::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
 
@@ -11,9 +11,15 @@ pub fn report_reader_warnings(stats: &CarmenStats) {
     }
 }
 
-/// Says when tracking failed: the scans lost (not in the map), or a large share of weak ones;
-/// and where scans are missing from the log (gaps in stamps that keep time).
-pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
+/// Over this share of the scans tracked off the log's odometry
+/// ([`TrackingSummary::off_odometry`]), the run says so: the benchmark logs' dense runs have
+/// up to 3 of thousands, their runs of every 10th scan 1-7 %, where most went wrong.
+pub const WARN_OFF_ODOMETRY_ABOVE: f64 = 0.01;
+
+/// Says when tracking failed: the scans lost (not in the map), a large share of weak ones, or
+/// of steps the log's odometry contradicts (by more than `witness_m`, metres); and where scans
+/// are missing from the log (gaps in stamps that keep time).
+pub fn warn_tracking(t: &TrackingSummary, scans: usize, witness_m: f64) {
     if t.lost > 0 {
         let ranges: Vec<String> = t
             .lost_ranges
@@ -54,6 +60,27 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
             listed.join(", ")
         );
     }
+    if t.off_odometry as f64 > WARN_OFF_ODOMETRY_ABOVE * scans as f64 {
+        let listed: Vec<String> = t
+            .off_odometry_scans
+            .iter()
+            .take(10)
+            .map(|s| s.to_string())
+            .collect();
+        let more = if t.off_odometry as usize > listed.len() {
+            ", ..."
+        } else {
+            ""
+        };
+        eprintln!(
+            "polymap: warning: the tracked step of {} of {scans} scans is more than {witness_m} m \
+             off the log's odometry (scans {}{more}): tracking slipped \
+             there (a corridor tracked short, a wrong door frame) or the odometry did; check \
+             the map (summary.json: tracking.off_odometry)",
+            t.off_odometry,
+            listed.join(", ")
+        );
+    }
     // Scans weak only because a direction was observed by few points are common along any
     // corridor, also where tracking is accurate (the built-in hallway: 12 %); they are counted
     // in summary.json but do not raise the warning.
@@ -61,14 +88,11 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize) {
     if doubtful as f64 > 0.1 * scans as f64 {
         eprintln!(
             "polymap: warning: tracking was weak on {doubtful} of {scans} scans (a direction came \
-             from the motion prior, the fit was poor or ambiguous): check the map"
+             from the motion prior, the fit was poor or ambiguous, or the step fell short of the \
+             robot's speed or off the log's odometry): check the map"
         );
     }
 }
-
-/// Tracked travel below which the odometry's travel is not judged, metres: a few scans of a
-/// robot that hardly moved say nothing of its odometry.
-pub const ODOMETRY_CHECK_MIN_TRAVEL_M: f64 = 5.0;
 
 /// Says when the log's odometry travelled under half or over twice what the scans tracked `ok`
 /// did ([`TrackingSummary::odometry_disagrees_with_travel`]): odometry that is stuck (a log

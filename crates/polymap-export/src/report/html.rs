@@ -32,6 +32,8 @@ struct Payload<'a> {
     lost_ranges: &'a [[u32; 2]],
     gap_scans: &'a [u32],
     gaps: u32,
+    off_odometry_scans: &'a [u32],
+    off_odometry: u32,
     map_consistency: Option<MapConsistency>,
 }
 
@@ -126,6 +128,8 @@ fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
         lost_ranges: &data.lost_ranges,
         gap_scans: &data.gap_scans,
         gaps: data.gaps,
+        off_odometry_scans: &data.off_odometry_scans,
+        off_odometry: data.off_odometry,
         map_consistency: data.map_consistency,
     }
 }

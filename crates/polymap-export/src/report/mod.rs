@@ -67,6 +67,13 @@ pub struct ReportData {
     /// How many scans follow a gap in the log (all of them, also beyond the marks).
     #[serde(default)]
     pub gaps: u32,
+    /// Scans whose tracked step the log's odometry contradicts (marked on the page's time
+    /// lines), the first [`MAX_GAP_MARKS`].
+    #[serde(default)]
+    pub off_odometry_scans: Vec<u32>,
+    /// How many such scans (all of them, also beyond the marks).
+    #[serde(default)]
+    pub off_odometry: u32,
     /// The run's check of the map as a whole (`summary.json` `map_consistency`), when the
     /// scans observed the map; shown beside the counts.
     #[serde(default)]
@@ -74,7 +81,7 @@ pub struct ReportData {
 }
 
 /// At most this many gap marks are kept for the page (a log of dropouts has many; the count
-/// is in `summary.json`).
+/// is in `summary.json`), and as many marks of scans off the odometry.
 pub const MAX_GAP_MARKS: usize = 1000;
 
 /// How often the run's scans saw through the map's walls for each time they saw one
@@ -172,6 +179,10 @@ pub struct ScanStat {
     /// [`polymap::mapper::ScanDiagnostics::after_gap`]).
     #[serde(default)]
     pub after_gap: bool,
+    /// The log's odometry contradicts the scan's tracked step (see
+    /// [`polymap::mapper::ScanDiagnostics::off_odometry`]).
+    #[serde(default)]
+    pub off_odometry: bool,
 }
 
 impl ScanStat {
@@ -187,6 +198,7 @@ impl ScanStat {
             map_segments: sat(d.map_segments),
             lost: d.tracking.verdict == polymap::align::Verdict::Lost,
             after_gap: d.after_gap,
+            off_odometry: d.off_odometry,
         }
     }
 }

@@ -252,6 +252,12 @@
     (D.gap_scans || []).forEach(function (t) {
       ctx.fillRect(left + w * t / xmax - 0.5, top, 1, h);
     });
+    // Scans whose tracked step the log's odometry contradicts, a short purple mark each
+    // along the top.
+    ctx.fillStyle = 'rgba(130, 40, 170, 0.8)';
+    (D.off_odometry_scans || []).forEach(function (t) {
+      ctx.fillRect(left + w * t / xmax - 0.5, top, 1, Math.max(4, h / 6));
+    });
     var cx = left + w * currentScan() / xmax;
     ctx.strokeStyle = TRAJECTORY; ctx.lineWidth = 1.5;
     ctx.beginPath(); ctx.moveTo(cx, top); ctx.lineTo(cx, top + h); ctx.stroke();
@@ -275,8 +281,10 @@
     $('hist-scan').textContent = String(scan);
     var lost = (D.lost_ranges || []).some(function (r) { return r[0] <= scan && scan <= r[1]; });
     var gap = (D.gap_scans || []).indexOf(scan) >= 0;
+    var off = (D.off_odometry_scans || []).indexOf(scan) >= 0;
     $('slider-label').textContent = 'scan ' + scan + (lost ? ' (tracking lost)' : '') +
-      (gap ? ' (after a gap in the log)' : '') + ' of ' + D.total_scans +
+      (gap ? ' (after a gap in the log)' : '') +
+      (off ? ' (step off the odometry)' : '') + ' of ' + D.total_scans +
       ' · snapshot ' + (snaps.length ? state.index + 1 : 0) + '/' + snaps.length;
     var rows = [
       ['segments at this time', snap ? snap.segments.length / 4 : '–'],
@@ -289,6 +297,10 @@
     var gaps = D.gaps || (D.gap_scans || []).length;
     if (gaps) {
       rows.push(['scans after a gap in the log (orange marks)', gaps]);
+    }
+    var off = D.off_odometry || (D.off_odometry_scans || []).length;
+    if (off) {
+      rows.push(['scans whose step the odometry contradicts (purple marks)', off]);
     }
     var mc = D.map_consistency;
     if (mc) {

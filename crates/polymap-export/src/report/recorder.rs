@@ -52,6 +52,8 @@ pub struct ReportRecorder {
     lost_ranges: Vec<[u32; 2]>,
     gap_scans: Vec<u32>,
     gaps: u32,
+    off_odometry_scans: Vec<u32>,
+    off_odometry: u32,
 }
 
 impl ReportRecorder {
@@ -71,6 +73,8 @@ impl ReportRecorder {
             lost_ranges: Vec::new(),
             gap_scans: Vec::new(),
             gaps: 0,
+            off_odometry_scans: Vec::new(),
+            off_odometry: 0,
             budget,
         }
     }
@@ -143,6 +147,12 @@ impl ReportRecorder {
                 self.gap_scans.push(stat.scan_index);
             }
         }
+        if stat.off_odometry {
+            self.off_odometry = self.off_odometry.saturating_add(1);
+            if self.off_odometry_scans.len() < super::MAX_GAP_MARKS {
+                self.off_odometry_scans.push(stat.scan_index);
+            }
+        }
         if stat.lost {
             let t = stat.scan_index;
             match self.lost_ranges.last_mut() {
@@ -192,6 +202,8 @@ impl ReportRecorder {
             lost_ranges: self.lost_ranges,
             gap_scans: self.gap_scans,
             gaps: self.gaps,
+            off_odometry_scans: self.off_odometry_scans,
+            off_odometry: self.off_odometry,
             map_consistency: None,
         }
     }

@@ -19,6 +19,7 @@ fn record_growing_map(scans: u32, budget: ReportBudget) -> (ReportData, u32) {
             map_segments: t + 1,
             lost: false,
             after_gap: false,
+            off_odometry: false,
         };
         recorder.record(stat, Pose2::new(f64::from(t), 0.0, 0.0), || {
             built += 1;
@@ -132,6 +133,7 @@ fn an_intel_sized_run_renders_to_a_few_megabytes() {
             map_segments: (t / 9).min(1500),
             lost: false,
             after_gap: false,
+            off_odometry: false,
         };
         let pose = Pose2::new(
             0.01 * f64::from(t % 3000),
@@ -165,6 +167,7 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
             scan_index: t,
             lost: matches!(t, 2..=4 | 7),
             after_gap: t == 5,
+            off_odometry: matches!(t, 6 | 8),
             ..Default::default()
         };
         recorder.record(stat, Pose2::IDENTITY, SnapshotContent::default);
@@ -172,11 +175,16 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
     let data = recorder.finish(SnapshotContent::default());
     assert_eq!(data.lost_ranges, vec![[2, 4], [7, 7]]);
     assert_eq!((data.gap_scans.clone(), data.gaps), (vec![5], 1));
+    assert_eq!(
+        (data.off_odometry_scans.clone(), data.off_odometry),
+        (vec![6, 8], 2)
+    );
     let html =
         crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &data)
             .expect("renders");
     assert!(html.contains("\"lost_ranges\":[[2,4],[7,7]]"));
     assert!(html.contains("\"gap_scans\":[5]"));
+    assert!(html.contains("\"off_odometry_scans\":[6,8]"));
     assert!(html.contains("\"map_consistency\":null"));
     let checked = ReportData {
         map_consistency: Some(crate::report::MapConsistency {

@@ -49,6 +49,8 @@ fn synthetic_report(n: u32, budget: ReportBudget) -> (MapSnapshot, ReportData) {
             lost: false,
             // A gap mark on the time lines, drawn by the page.
             after_gap: t == 12,
+            // A mark of a step off the odometry, drawn by the page.
+            off_odometry: t == 20,
         };
         recorder.record(stat, pose, || {
             SnapshotContent::of_map(&map, t + 1, &DirectionParams::default())

@@ -63,8 +63,8 @@ pub use strategy::{
     whole_map_window,
 };
 pub use track::{
-    LOOSE_OFF_MAP_M, LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict,
-    WindowMatch, search_window, should_search, verdict, window_search,
+    LOOSE_OFF_MAP_M, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackParams, Tracking,
+    Verdict, WindowMatch, search_window, should_search, verdict, window_search,
 };
 
 /// Which correspondences drive ICP.

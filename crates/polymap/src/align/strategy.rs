@@ -68,12 +68,15 @@
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]), or when ICP from the search's pose and from the starts
 //!    reached distinct poses that both observe every direction and fit alike (within
-//!    `tracking.ambiguous_above` of the inliers).
+//!    `tracking.ambiguous_above` of the inliers); `weak` (`slowed`) for a fast robot put near
+//!    no motion on weak evidence ([`Tracker::slowed`]); `weak` (`off_odometry`) where the
+//!    log's odometry, witnessing without being the prior, gives the step another length
+//!    ([`OdometryWitness`]).
 
 use super::global::bounds;
 use super::track::{
-    LOOSE_OFF_MAP_M, LoosePoints, Reason, RecentMotion, TrackParams, Tracking, Verdict,
-    WindowMatch, search_window, should_search, verdict, window_search,
+    LOOSE_OFF_MAP_M, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackParams, Tracking,
+    Verdict, WindowMatch, search_window, should_search, verdict, window_search,
 };
 use super::{
     AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup,
@@ -127,6 +130,9 @@ pub struct TrackInput<'a> {
     pub recent: &'a RecentMotion,
     /// Scans lost in a row just before this one.
     pub lost_streak: u32,
+    /// Without the odometry prior, the log's odometry as a witness of the step, where the
+    /// mapper trusts it to witness (`tracking.odometry_witness_m`).
+    pub odometry_witness: Option<OdometryWitness>,
 }
 
 /// The parameters [`track_scan`] follows: ICP's, tracking's, and the mapper's start policy
@@ -235,6 +241,15 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::Slowed;
         tracking.weak_direction_deg = Some(axis_deg);
+    }
+    // The log's odometry, not the prior, says the step is another length: one of the two
+    // slipped, and a scan matched `ok` to the wrong door frame is as likely as a wheel's slip.
+    if tracking.verdict == Verdict::Ok
+        && let (Some(witness), Some(r)) = (input.odometry_witness, result.as_ref())
+        && witness.contradicts(&r.map_from_robot, config.tracking.odometry_witness_m)
+    {
+        tracking.verdict = Verdict::Weak;
+        tracking.reason = Reason::OffOdometry;
     }
     (result, tracking)
 }
@@ -1138,6 +1153,7 @@ mod tests {
             constant_velocity: None,
             recent: &recent,
             lost_streak,
+            odometry_witness: None,
         };
         let align = AlignParams {
             method,

@@ -10,8 +10,8 @@ use std::time::Instant;
 use serde::{Deserialize, Serialize};
 
 use crate::align::{
-    AlignResult, GlobalSearch, LoosePoints, Reason, RecentMotion, TrackConfig, TrackInput,
-    Tracking, Verdict, align_points, better, thin_points, track_scan, verdict,
+    AlignResult, GlobalSearch, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackConfig,
+    TrackInput, Tracking, Verdict, align_points, better, thin_points, track_scan, verdict,
 };
 use crate::config::Config;
 use crate::directions::recent_main_directions;
@@ -51,6 +51,10 @@ pub struct ScanDiagnostics {
     /// keep time (counted in [`TrackingSummary::gaps`]).
     #[serde(default)]
     pub after_gap: bool,
+    /// The log's odometry contradicts the scan's tracked step (counted in
+    /// [`TrackingSummary::off_odometry`], whatever the verdict).
+    #[serde(default)]
+    pub off_odometry: bool,
 }
 
 /// Wall-clock seconds spent in each stage of one [`Mapper::push`].
@@ -223,10 +227,31 @@ pub struct TrackingSummary {
     /// (the benchmark logs: within 2 %).
     #[serde(default)]
     pub tracked_travel_m: f64,
+    /// Without the odometry prior, once the log's odometry agreed with the scans
+    /// ([`TrackingSummary::odometry_agrees_with_travel`]): the scans not lost whose tracked
+    /// step lies more than `tracking.odometry_witness_m` from the odometry's (and from its
+    /// reverse, [`OdometryWitness`]), whatever their verdict (an `ok` one becomes `weak`, `off_odometry`). Along a corridor
+    /// tracked short (`weakly_observed` scans that do not raise the weak warning) these are
+    /// the sign: the benchmark logs' dense runs have 0–3, their runs of every 10th scan 1–7 %.
+    #[serde(default)]
+    pub off_odometry: u32,
+    /// The first [`MAX_GAP_SCANS`] of them (scan indices, 0-based).
+    #[serde(default)]
+    pub off_odometry_scans: Vec<u32>,
 }
 
-/// At most this many gap scans are listed in [`TrackingSummary::gap_scans`] (all are counted).
+/// At most this many gap scans are listed in [`TrackingSummary::gap_scans`] (all are counted),
+/// and as many in [`TrackingSummary::off_odometry_scans`].
 pub const MAX_GAP_SCANS: usize = 100;
+
+/// Tracked travel below which the log's odometry is not judged against the scans, metres: a
+/// few scans of a robot that hardly moved say nothing of its odometry.
+pub const ODOMETRY_CHECK_MIN_TRAVEL_M: f64 = 5.0;
+
+/// The log's odometry witnesses the steps ([`OdometryWitness`]) while its travel between
+/// consecutive `ok` scans is within this factor of the scans' either way (the benchmark logs:
+/// within 2 %; a wheel 10 % too small still witnesses).
+pub const ODOMETRY_WITNESS_WITHIN: f64 = 1.25;
 
 impl TrackingSummary {
     /// Counts the lost scans `first..=last` (one lost range) as weak instead.
@@ -262,6 +287,24 @@ impl TrackingSummary {
     pub fn odometry_disagrees_with_travel(&self, min_travel_m: f64) -> bool {
         let (odo, scans) = (self.odometry_travel_m, self.tracked_travel_m);
         scans >= min_travel_m && (odo < 0.5 * scans || odo > 2.0 * scans)
+    }
+
+    /// Whether the log's odometry travelled within [`ODOMETRY_WITNESS_WITHIN`] of what the
+    /// scans did (see [`TrackingSummary::odometry_travel_m`]), over at least `min_travel_m` of
+    /// tracked travel: odometry fit to witness the steps.
+    pub fn odometry_agrees_with_travel(&self, min_travel_m: f64) -> bool {
+        let (odo, scans) = (self.odometry_travel_m, self.tracked_travel_m);
+        scans >= min_travel_m
+            && odo >= scans / ODOMETRY_WITNESS_WITHIN
+            && odo <= scans * ODOMETRY_WITNESS_WITHIN
+    }
+
+    /// Counts scan `t` as tracked off the log's odometry.
+    fn count_off_odometry(&mut self, t: u32) {
+        self.off_odometry += 1;
+        if self.off_odometry_scans.len() < MAX_GAP_SCANS {
+            self.off_odometry_scans.push(t);
+        }
     }
 
     fn count(&mut self, t: u32, verdict: Verdict, reason: Reason) {
@@ -520,9 +563,10 @@ impl Mapper {
         let clock = Instant::now();
         let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot, scan.stamp_s);
         let placing = self.placement != Placement::Placed;
+        let witness = self.odometry_witness(scan.odom_from_robot);
         let (align, tracking) = match placing {
             true => self.place(&scan),
-            false => self.align(&scan, guess, anchor, unobserved_to),
+            false => self.align(&scan, guess, anchor, unobserved_to, witness),
         };
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
@@ -543,6 +587,7 @@ impl Mapper {
         }
         let placed = self.placement == Placement::Placed;
         let mut after_gap = false;
+        let mut off_odometry = false;
         if placed {
             // Observed: tracked `ok` (or only `slowed`, see `Tracking::carries_tracking`) with
             // every direction observed; a motion between two observed scans is evidence of the
@@ -558,6 +603,11 @@ impl Mapper {
             after_gap = self.observed.last_gap_scale() > 1.0;
             if after_gap {
                 self.verdicts.count_gap(i);
+            }
+            let off = self.config.tracking.odometry_witness_m;
+            off_odometry = !lost && witness.is_some_and(|w| w.contradicts(&pose, off));
+            if off_odometry {
+                self.verdicts.count_off_odometry(i);
             }
             // The log's odometry against the scans, between consecutive `ok` scans.
             let ok = tracking.carries_tracking();
@@ -668,6 +718,7 @@ impl Mapper {
             loops,
             tracking,
             after_gap,
+            off_odometry,
         };
         Update {
             scan_index: i,

@@ -353,3 +353,63 @@ fn a_gap_in_the_log_is_predicted_over_its_time() {
     }
     assert_eq!(speed.gap_scale(Some(bunched(55))), 1.0);
 }
+
+/// Forward 4 m along the room and back, 0.1 m per scan, with the log's odometry as `odometry`
+/// makes it of the truth (the odometry prior off): the scans' verdicts and the run's summary.
+fn drive_witnessed(
+    witness_m: f64,
+    odometry: impl Fn(usize, &Pose2) -> Pose2,
+) -> (Vec<Update>, TrackingSummary) {
+    let walls = room();
+    let mut config = Config::default();
+    config.tracking.odometry_witness_m = witness_m;
+    let mut mapper = Mapper::new(config);
+    let updates = (0..80)
+        .map(|i| {
+            let x = 0.1 * if i < 40 { i } else { 80 - i } as f64;
+            let truth = Pose2::new(x, 0.2, 0.0);
+            let mut scan = scan_from(&walls, &truth, i as f64 * 0.1);
+            scan.odom_from_robot = Some(odometry(i, &truth));
+            mapper.push(&scan)
+        })
+        .collect();
+    (updates, mapper.tracking_summary().clone())
+}
+
+#[test]
+fn a_step_the_logs_odometry_contradicts_is_weak_and_counted() {
+    // The odometry slips 0.5 m forward on scan 70 only (it reads a step of 0.6 m where the
+    // robot went 0.1 m back), once 5 m of travel agreed.
+    let slip = |i: usize, truth: &Pose2| match i {
+        70 => Pose2::new(truth.x_m + 0.6, truth.y_m, truth.theta_rad),
+        _ => *truth,
+    };
+    let (updates, summary) = drive_witnessed(0.3, slip);
+    assert_eq!(summary.off_odometry_scans, [70, 71], "{summary:?}");
+    assert_eq!(summary.off_odometry, 2);
+    let t = updates[70].diagnostics.tracking;
+    assert_eq!((t.verdict, t.reason), (Verdict::Weak, Reason::OffOdometry));
+    assert!(t.carries_tracking());
+    // The label alone: the poses are those of a run the odometry does not witness.
+    let (unwitnessed, quiet) = drive_witnessed(0.0, slip);
+    assert_eq!(quiet.off_odometry, 0);
+    let poses = |u: &[Update]| u.iter().map(|u| u.map_from_robot).collect::<Vec<_>>();
+    assert_eq!(poses(&updates), poses(&unwitnessed));
+    // Scan 70 is 1 m along x from the first, the map frame's origin.
+    let off = updates[70]
+        .map_from_robot
+        .between(&Pose2::new(1.0, 0.0, 0.0));
+    assert!(off.translation().length() < 0.05, "{off:?}");
+    // Odometry that agrees witnesses nothing against the scans.
+    let (_, agreed) = drive_witnessed(0.3, |_, truth| *truth);
+    assert_eq!(agreed.off_odometry, 0);
+    // Odometry five times too long never agreed with the scans' travel: it is no witness.
+    let scaled = |_: usize, t: &Pose2| Pose2::new(5.0 * t.x_m, t.y_m, t.theta_rad);
+    let (updates, summary) = drive_witnessed(0.3, scaled);
+    assert_eq!(summary.off_odometry, 0);
+    assert!(
+        updates
+            .iter()
+            .all(|u| u.diagnostics.tracking.reason != Reason::OffOdometry)
+    );
+}

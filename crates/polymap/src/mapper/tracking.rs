@@ -73,14 +73,35 @@ impl Mapper {
         Some(self.observed.predicted_step(&prev.between(&last), stamp_s))
     }
 
+    /// The log's odometry as a witness of the step to a scan whose odometry pose is
+    /// `odom_from_robot` (`tracking.odometry_witness_m`): without the odometry prior, once its
+    /// travel agreed with the scans' ([`TrackingSummary::odometry_agrees_with_travel`]).
+    pub(super) fn odometry_witness(
+        &self,
+        odom_from_robot: Option<Pose2>,
+    ) -> Option<OdometryWitness> {
+        let on = self.config.mapper.motion_prior != MotionPrior::Odometry
+            && self.config.tracking.odometry_witness_m > 0.0
+            && self
+                .verdicts
+                .odometry_agrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M);
+        let (previous, from, to) = (self.last_pose?, self.last_odom?, odom_from_robot?);
+        on.then(|| OdometryWitness {
+            previous,
+            step: from.between(&to).translation(),
+        })
+    }
+
     /// The pose of the scan and the verdict on it, from [`crate::align::track_scan`] with the
-    /// mapper's state; the pose is `None` when there is nothing to align to.
+    /// mapper's state (and the log's odometry as a `witness` of the step); the pose is `None`
+    /// when there is nothing to align to.
     pub(super) fn align(
         &self,
         scan: &PreparedScan,
         guess: Pose2,
         anchor: Pose2,
         unobserved_to: Pose2,
+        witness: Option<OdometryWitness>,
     ) -> (Option<AlignResult>, Tracking) {
         let (reference, dt_s) = reach_reference(self.last_ok, scan.stamp_s, guess);
         // With odometry, ICP restarts after a lost scan from the last `ok` pose moved by the
@@ -113,6 +134,7 @@ impl Mapper {
             constant_velocity,
             recent: &self.recent,
             lost_streak: self.lost_streak,
+            odometry_witness: witness,
         };
         let config = TrackConfig {
             align: &self.config.align,
