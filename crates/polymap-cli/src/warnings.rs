@@ -76,7 +76,8 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize, witness_m: f64) {
             "polymap: warning: the tracked step of {} of {scans} scans is more than {witness_m} m \
              off the log's odometry (scans {}{more}): tracking slipped \
              there (a corridor tracked short, a wrong door frame) or the odometry did; check \
-             the map (summary.json: tracking.off_odometry)",
+             the map, and since the odometry's travel agrees with the scans', try --odometry \
+             (summary.json: tracking.off_odometry)",
             t.off_odometry,
             listed.join(", ")
         );

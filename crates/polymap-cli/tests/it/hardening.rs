@@ -689,6 +689,71 @@ fn an_odometry_jump_is_warned_and_does_not_wreck_the_map() {
     assert!(rmse < 0.5, "ATE {rmse} m");
 }
 
+/// Without `--odometry`, the log's odometry witnesses the steps: 14 scans of the simulated
+/// office whose odometry reads 0.5 m ahead (two steps off each) are counted in `summary.json`
+/// and warned about with a hint to try `--odometry`; the trajectory is the one the clean log
+/// gives (a label, not a correction), and the clean log raises no such warning.
+#[test]
+fn steps_the_logs_odometry_contradicts_are_warned_without_changing_the_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let clean = office_log(dir.path());
+    let mut k = 0;
+    let spiked: String = fs::read_to_string(&clean)
+        .unwrap()
+        .lines()
+        .map(|l| {
+            let mut f: Vec<String> = l.split_whitespace().map(str::to_owned).collect();
+            if f.first().map(String::as_str) == Some("FLASER") {
+                k += 1;
+                if k >= 300 && k % 100 == 0 {
+                    let i = 2 + f[1].parse::<usize>().unwrap();
+                    for j in [i, i + 3] {
+                        f[j] = (f[j].parse::<f64>().unwrap() + 0.5).to_string();
+                    }
+                }
+            }
+            f.join(" ") + "\n"
+        })
+        .collect();
+    let log = dir.path().join("spiked.clf");
+    fs::write(&log, spiked).unwrap();
+    let run = |log: &Path, name: &str| {
+        let out = dir.path().join(name);
+        let o = polymap(&[
+            "map",
+            log.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let summary: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+        let trajectory = fs::read_to_string(out.join("trajectory.tum")).unwrap();
+        (
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+            summary,
+            trajectory,
+        )
+    };
+    let (stderr, summary, trajectory) = run(&log, "spiked");
+    assert!(stderr.contains("off the log's odometry"), "{stderr}");
+    assert!(stderr.contains("try --odometry"), "{stderr}");
+    let off = summary["tracking"]["off_odometry"].as_u64().unwrap();
+    assert!((20..=30).contains(&off), "{off} steps off: {summary}");
+    let first = summary["tracking"]["off_odometry_scans"][0]
+        .as_u64()
+        .unwrap();
+    assert!(first >= 299, "first step off at scan {first}");
+    let (clean_stderr, clean_summary, clean_trajectory) = run(&clean, "clean");
+    assert!(
+        !clean_stderr.contains("off the log's odometry"),
+        "{clean_stderr}"
+    );
+    assert_eq!(clean_summary["tracking"]["off_odometry"], 0);
+    assert_eq!(trajectory, clean_trajectory);
+}
+
 /// Scans missing from a log (15 in a row dropped from the simulated office): a counted warning
 /// naming the scan after the gap, and `summary.json` `tracking.gaps`; the whole log has none.
 #[test]
