@@ -13,7 +13,8 @@ pub fn report_reader_warnings(stats: &CarmenStats) {
 
 /// Over this share of the scans tracked off the log's odometry
 /// ([`TrackingSummary::off_odometry`]), the run says so: the benchmark logs' dense runs have
-/// up to 3 of thousands, their runs of every 10th scan 1-7 %, where most went wrong.
+/// none, their runs of every 5th scan at most 1.3 %, of every 10th scan 0.9-9.9 %, where most
+/// went wrong.
 pub const WARN_OFF_ODOMETRY_ABOVE: f64 = 0.01;
 
 /// Says when tracking failed: the scans lost (not in the map), a large share of weak ones, or

@@ -298,9 +298,9 @@
     if (gaps) {
       rows.push(['scans after a gap in the log (orange marks)', gaps]);
     }
-    var off = D.off_odometry || (D.off_odometry_scans || []).length;
-    if (off) {
-      rows.push(['scans whose step the odometry contradicts (purple marks)', off]);
+    var offCount = D.off_odometry || (D.off_odometry_scans || []).length;
+    if (offCount) {
+      rows.push(['scans whose step the odometry contradicts (purple marks)', offCount]);
     }
     var mc = D.map_consistency;
     if (mc) {

@@ -496,17 +496,18 @@ impl TrackParams {
     }
 }
 
-/// The log's odometry as a witness of one step, where it is not the motion prior: the
-/// previous scan's pose and the odometry's translation since. The mapper offers it only once
+/// The log's odometry as a witness of one step, where it is not the motion prior: the pose
+/// the step starts from and the odometry's translation since. The mapper offers it only once
 /// the odometry has agreed with the scans (see
 /// `TrackingSummary::odometry_agrees_with_travel`): a stuck or scaled odometry witnesses
 /// nothing.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OdometryWitness {
-    /// The previous scan's pose, map frame.
+    /// The pose the step starts from, map frame: the previous scan's, or after lost scans the
+    /// last `ok` one's.
     pub previous: Pose2,
-    /// The odometry's translation from the previous scan to this one, robot frame of the
-    /// previous scan, metres.
+    /// The odometry's translation from that scan to this one, robot frame of that scan,
+    /// metres.
     pub step: Vec2,
 }
 
@@ -543,7 +544,7 @@ impl Tracking {
     /// by a corner hypothesis unless it is `ok` (a pose away from the prediction enters the
     /// map only when the scan fits there without doubt; the scan still tracks from it) or
     /// only `off_odometry`, a label: keeping those out too took ACES every 5th scan, phase 2,
-    /// from 0.136 to 0.330 m (session 22).
+    /// from 0.076 to 0.330 m (session 22).
     pub fn enters_map(&self, merge_doubtful_scans: bool) -> bool {
         let doubtful = matches!(self.reason, Reason::PoorFit | Reason::Ambiguous);
         let confident = self.verdict == Verdict::Ok || self.reason == Reason::OffOdometry;
@@ -914,6 +915,33 @@ mod tests {
         for reason in [Reason::Ambiguous, Reason::WeaklyObserved, Reason::PoorFit] {
             assert!(!at(Verdict::Weak, reason, true).enters_map(true));
         }
+        // `off_odometry` is a label: a corner pose enters the map and tracking carries on
+        // from it as from an `ok` one.
+        let witnessed = at(Verdict::Weak, Reason::OffOdometry, true);
+        assert!(witnessed.enters_map(false) && witnessed.carries_tracking());
+        assert!(!slid.carries_tracking() && !poor.carries_tracking() && ok.carries_tracking());
+    }
+
+    #[test]
+    fn the_odometry_witnesses_the_steps_line_not_its_sense() {
+        let previous = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
+        // The odometry read 1 m ahead (robot frame): map frame +y from `previous`.
+        let witness = OdometryWitness {
+            previous,
+            step: Vec2::new(1.0, 0.0),
+        };
+        let at = |x: f64, y: f64| Pose2::new(x, y, 0.0);
+        assert!(!witness.contradicts(&at(1.0, 3.0), 0.3));
+        assert!(!witness.contradicts(&at(1.2, 3.1), 0.3));
+        // Backwards 1 m: the odometry's line, in reverse (odometry that reads a reverse as
+        // forward).
+        assert!(!witness.contradicts(&at(1.0, 1.0), 0.3));
+        // A stall, half the step, a step sideways.
+        assert!(witness.contradicts(&at(1.0, 2.0), 0.3));
+        assert!(witness.contradicts(&at(1.0, 2.5), 0.3));
+        assert!(witness.contradicts(&at(2.0, 2.0), 0.3));
+        // 0 turns it off.
+        assert!(!witness.contradicts(&at(1.0, 2.0), 0.0));
     }
 
     #[test]

@@ -354,26 +354,42 @@ fn a_gap_in_the_log_is_predicted_over_its_time() {
     assert_eq!(speed.gap_scale(Some(bunched(55))), 1.0);
 }
 
+/// What [`drive_witnessed`] returns: each scan's update, the run's summary, the final map.
+type Witnessed = (Vec<Update>, TrackingSummary, Vec<MapSegment>);
+
 /// Forward 4 m along the room and back, 0.1 m per scan, with the log's odometry as `odometry`
-/// makes it of the truth (the odometry prior off): the scans' verdicts and the run's summary.
+/// makes it of the truth, under `config`; the scans `blind` picks have no valid point (lost).
 fn drive_witnessed(
-    witness_m: f64,
+    config: Config,
+    blind: impl Fn(usize) -> bool,
     odometry: impl Fn(usize, &Pose2) -> Pose2,
-) -> (Vec<Update>, TrackingSummary) {
+) -> Witnessed {
     let walls = room();
-    let mut config = Config::default();
-    config.tracking.odometry_witness_m = witness_m;
     let mut mapper = Mapper::new(config);
     let updates = (0..80)
         .map(|i| {
             let x = 0.1 * if i < 40 { i } else { 80 - i } as f64;
             let truth = Pose2::new(x, 0.2, 0.0);
             let mut scan = scan_from(&walls, &truth, i as f64 * 0.1);
+            if blind(i) {
+                scan.ranges_m.iter_mut().for_each(|r| *r = f64::NAN);
+            }
             scan.odom_from_robot = Some(odometry(i, &truth));
             mapper.push(&scan)
         })
         .collect();
-    (updates, mapper.tracking_summary().clone())
+    (
+        updates,
+        mapper.tracking_summary().clone(),
+        mapper.segments(),
+    )
+}
+
+/// The default configuration with the odometry witness at `witness_m` (0: off).
+fn witnessed_at(witness_m: f64) -> Config {
+    let mut config = Config::default();
+    config.tracking.odometry_witness_m = witness_m;
+    config
 }
 
 #[test]
@@ -384,32 +400,59 @@ fn a_step_the_logs_odometry_contradicts_is_weak_and_counted() {
         70 => Pose2::new(truth.x_m + 0.6, truth.y_m, truth.theta_rad),
         _ => *truth,
     };
-    let (updates, summary) = drive_witnessed(0.3, slip);
+    let sighted = |_: usize| false;
+    let (updates, summary, map) = drive_witnessed(witnessed_at(0.3), sighted, slip);
     assert_eq!(summary.off_odometry_scans, [70, 71], "{summary:?}");
     assert_eq!(summary.off_odometry, 2);
     let t = updates[70].diagnostics.tracking;
     assert_eq!((t.verdict, t.reason), (Verdict::Weak, Reason::OffOdometry));
-    assert!(t.carries_tracking());
-    // The label alone: the poses are those of a run the odometry does not witness.
-    let (unwitnessed, quiet) = drive_witnessed(0.0, slip);
+    assert!(updates[70].diagnostics.off_odometry && !updates[69].diagnostics.off_odometry);
+    // The label alone: the poses and the map are those of a run the odometry does not
+    // witness.
+    let (unwitnessed, quiet, unwitnessed_map) = drive_witnessed(witnessed_at(0.0), sighted, slip);
     assert_eq!(quiet.off_odometry, 0);
     let poses = |u: &[Update]| u.iter().map(|u| u.map_from_robot).collect::<Vec<_>>();
     assert_eq!(poses(&updates), poses(&unwitnessed));
+    assert_eq!(map, unwitnessed_map);
     // Scan 70 is 1 m along x from the first, the map frame's origin.
     let off = updates[70]
         .map_from_robot
         .between(&Pose2::new(1.0, 0.0, 0.0));
     assert!(off.translation().length() < 0.05, "{off:?}");
-    // Odometry that agrees witnesses nothing against the scans.
-    let (_, agreed) = drive_witnessed(0.3, |_, truth| *truth);
-    assert_eq!(agreed.off_odometry, 0);
-    // Odometry five times too long never agreed with the scans' travel: it is no witness.
-    let scaled = |_: usize, t: &Pose2| Pose2::new(5.0 * t.x_m, t.y_m, t.theta_rad);
-    let (updates, summary) = drive_witnessed(0.3, scaled);
-    assert_eq!(summary.off_odometry, 0);
-    assert!(
-        updates
+    // With the odometry prior the odometry is no witness: the scans check it otherwise.
+    let mut prior = witnessed_at(0.3);
+    prior.mapper.motion_prior = MotionPrior::Odometry;
+    let (_, with_prior, _) = drive_witnessed(prior, sighted, slip);
+    assert_eq!(with_prior.off_odometry, 0);
+}
+
+#[test]
+fn odometry_that_cannot_witness_flags_nothing() {
+    let quiet = |odometry: &dyn Fn(usize, &Pose2) -> Pose2, blind: &dyn Fn(usize) -> bool| {
+        let (updates, summary, _) = drive_witnessed(witnessed_at(0.3), blind, odometry);
+        let relabelled = updates
             .iter()
-            .all(|u| u.diagnostics.tracking.reason != Reason::OffOdometry)
-    );
+            .filter(|u| u.diagnostics.tracking.reason == Reason::OffOdometry)
+            .count();
+        (summary.off_odometry, relabelled)
+    };
+    let sighted = |_: usize| false;
+    // Odometry that agrees.
+    assert_eq!(quiet(&|_, truth| *truth, &sighted), (0, 0));
+    // Odometry that reads the backward half as forward: the reverse witnesses the line.
+    let forward = |i: usize, t: &Pose2| Pose2::new(0.1 * i as f64, t.y_m, t.theta_rad);
+    assert_eq!(quiet(&forward, &sighted), (0, 0));
+    // Odometry five times too long never agreed with the scans' travel.
+    let scaled = |_: usize, t: &Pose2| Pose2::new(5.0 * t.x_m, t.y_m, t.theta_rad);
+    assert_eq!(quiet(&scaled, &sighted), (0, 0));
+    // A slip before 5 m of tracked travel agreed (scan 20, 2 m along) goes unwitnessed.
+    let early = |i: usize, t: &Pose2| match i {
+        20 => Pose2::new(t.x_m + 0.6, t.y_m, t.theta_rad),
+        _ => *t,
+    };
+    assert_eq!(quiet(&early, &sighted), (0, 0));
+    // Four lost scans (no valid point): the scan after them is witnessed from the last `ok`
+    // one, not from the held pose of the last lost one, and is tracked right.
+    let blind = |i: usize| (60..64).contains(&i);
+    assert_eq!(quiet(&|_, truth| *truth, &blind), (0, 0));
 }

@@ -74,8 +74,9 @@ impl Mapper {
     }
 
     /// The log's odometry as a witness of the step to a scan whose odometry pose is
-    /// `odom_from_robot` (`tracking.odometry_witness_m`): without the odometry prior, once its
-    /// travel agreed with the scans' ([`TrackingSummary::odometry_agrees_with_travel`]).
+    /// `odom_from_robot` (`tracking.odometry_witness_m`): from the previous scan, or after lost
+    /// scans from the last `ok` one; without the odometry prior, while its travel agrees with
+    /// the scans' ([`TrackingSummary::odometry_agrees_with_travel`], judged at every scan).
     pub(super) fn odometry_witness(
         &self,
         odom_from_robot: Option<Pose2>,
@@ -85,7 +86,13 @@ impl Mapper {
             && self
                 .verdicts
                 .odometry_agrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M);
-        let (previous, from, to) = (self.last_pose?, self.last_odom?, odom_from_robot?);
+        // After a lost scan, from the last `ok` pose: a lost scan's pose is its poor fit (or
+        // the anchor), and a step from it says nothing of the scan after it.
+        let (previous, from) = match self.lost_streak {
+            0 => (self.last_pose?, self.last_odom?),
+            _ => (self.last_ok.map(|(_, pose, _)| pose)?, self.last_ok_odom?),
+        };
+        let to = odom_from_robot?;
         on.then(|| OdometryWitness {
             previous,
             step: from.between(&to).translation(),
