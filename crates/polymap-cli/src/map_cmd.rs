@@ -143,6 +143,9 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         topic: a.topic.clone(),
         odometry: a.odometry,
         odom_topic: a.odom_topic.clone(),
+        // Without --odometry the log's odometry, where a ROS file has it, still witnesses the
+        // steps (CARMEN scans carry theirs anyway).
+        witness_odometry: true,
         ..LogOptions::default()
     };
     let source = LogSource::open(&log, &options)?;

@@ -73,6 +73,10 @@ pub struct LogOptions {
     pub odometry: bool,
     /// ROS: the `Odometry` topic (default: the only one).
     pub odom_topic: Option<String>,
+    /// ROS without `odometry`: attach the odometry anyway where it is found without another
+    /// pass over the file, as a witness of the steps, best effort
+    /// ([`RosScanOptions::witness_odometry`]).
+    pub witness_odometry: bool,
     /// CARMEN reader settings (its `skip_bad_lines` is taken from `skip_bad_input`).
     pub carmen: ReaderOptions,
 }
@@ -114,6 +118,9 @@ pub struct LogStats {
     pub valid_readings: u64,
     /// ROS with odometry: scans outside the odometry's time span (given the nearest pose).
     pub scans_outside_odometry: u64,
+    /// ROS without odometry: why the odometry that witnessed the steps was dropped, when it
+    /// was.
+    pub odometry_dropped: Option<String>,
 }
 
 enum Inner {
@@ -146,6 +153,7 @@ impl LogSource {
                     topic: options.topic.clone(),
                     odometry: options.odometry,
                     odom_topic: options.odom_topic.clone(),
+                    witness_odometry: options.witness_odometry,
                     skip_bad: options.skip_bad_input,
                     ..RosScanOptions::default()
                 };
@@ -218,6 +226,7 @@ impl LogSource {
                     no_return_readings: s.no_return_readings,
                     valid_readings: s.valid_readings,
                     scans_outside_odometry: 0,
+                    odometry_dropped: None,
                 }
             }
             Inner::Ros(r) => {
@@ -234,6 +243,7 @@ impl LogSource {
                     no_return_readings: s.no_return_readings,
                     valid_readings: s.valid_readings,
                     scans_outside_odometry: s.scans_outside_odometry,
+                    odometry_dropped: s.odometry_dropped,
                 }
             }
         }
@@ -256,6 +266,16 @@ impl LogSource {
                     bad_line_messages: s.bad_record_errors,
                     no_return_readings: s.no_return_readings,
                     valid_readings: s.valid_readings,
+                    other_warnings: s
+                        .odometry_dropped
+                        .map(|e| {
+                            format!(
+                                "the odometry could not be read ({e}); from then on no \
+                                 odometry witnesses the steps"
+                            )
+                        })
+                        .into_iter()
+                        .collect(),
                     ..CarmenStats::default()
                 }
             }

@@ -754,6 +754,42 @@ fn steps_the_logs_odometry_contradicts_are_warned_without_changing_the_map() {
     assert_eq!(trajectory, clean_trajectory);
 }
 
+/// A ROS recording's odometry witnesses the steps without `--odometry` too: the simulated
+/// office as MCAP reports the odometry's travel beside the scans' and no step off it.
+#[test]
+fn a_ros_recordings_odometry_witnesses_the_steps_without_the_odometry_prior() {
+    let dir = tempfile::tempdir().unwrap();
+    let o = polymap(&[
+        "simulate",
+        "office",
+        "--ros",
+        "-o",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let run = dir.path().join("run");
+    let mcap = dir.path().join("office.mcap");
+    let o = polymap(&[
+        "map",
+        mcap.to_str().unwrap(),
+        "-o",
+        run.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let summary: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
+    let t = &summary["tracking"];
+    let odometry_m = t["odometry_travel_m"].as_f64().unwrap();
+    let tracked_m = t["tracked_travel_m"].as_f64().unwrap();
+    assert!(
+        odometry_m > 50.0,
+        "odometry travel {odometry_m} m: {summary}"
+    );
+    assert!((odometry_m / tracked_m - 1.0).abs() < 0.05, "{summary}");
+    assert_eq!(t["off_odometry"], 0, "{summary}");
+}
+
 /// Scans missing from a log (15 in a row dropped from the simulated office): a counted warning
 /// naming the scan after the gap, and `summary.json` `tracking.gaps`; the whole log has none.
 #[test]

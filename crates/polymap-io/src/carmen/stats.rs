@@ -55,6 +55,9 @@ pub struct CarmenStats {
     /// [`MAX_HELD_SCANS`](super::MAX_HELD_SCANS) scans waited, an error came first) or the
     /// odometry jumped over the gap (`largest`: the oldest, seconds).
     pub stale_odometry_kept: Oddity,
+    /// Warnings a reader of another format reports in these terms (a ROS recording whose
+    /// witness odometry was dropped); empty for CARMEN.
+    pub other_warnings: Vec<String>,
 }
 
 /// How often something odd but readable occurred, and where first.
@@ -156,6 +159,7 @@ impl CarmenStats {
                 ),
             );
         }
+        out.extend(self.other_warnings.iter().cloned());
         out
     }
 

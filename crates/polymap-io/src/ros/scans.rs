@@ -25,6 +25,12 @@ pub struct RosScanOptions {
     pub odometry: bool,
     /// The `Odometry` topic; `None`: the only one in the file.
     pub odom_topic: Option<String>,
+    /// Without `odometry`: attach the odometry anyway, as a witness of the steps (the mapper
+    /// checks its scans against it without tracking from it), from `odom_topic` or, when the
+    /// file is surveyed for the laser topic anyway, its only `Odometry` topic. Best effort:
+    /// scans outside the odometry's time span get none, and odometry that cannot be read is
+    /// dropped ([`RosStats::odometry_dropped`]) instead of failing the run.
+    pub witness_odometry: bool,
     /// Skip (and count) undecodable messages and corrupt chunks instead of failing.
     pub skip_bad: bool,
     /// Size limits.
@@ -52,6 +58,9 @@ pub struct RosStats {
     pub valid_readings: u64,
     /// Scans outside the odometry's time span, given the nearest odometry pose.
     pub scans_outside_odometry: u64,
+    /// With [`RosScanOptions::witness_odometry`]: why the witness odometry was dropped,
+    /// when it was (the scans from then on carry none).
+    pub odometry_dropped: Option<String>,
 }
 
 /// Streams the scans of one `LaserScan` topic in file order.
@@ -70,6 +79,8 @@ pub struct RosScanReader {
     topic: String,
     index: u64,
     odom: Option<OdomTrack>,
+    /// Whether `odom` only witnesses ([`RosScanOptions::witness_odometry`]).
+    witness: bool,
     stats: RosStats,
     skip_bad: bool,
 }
@@ -119,6 +130,24 @@ impl RosScanReader {
             };
             let source = open_for(std::slice::from_ref(&odom_topic))?;
             Some(OdomTrack::new(source, path, odom_topic, options.skip_bad))
+        } else if options.witness_odometry {
+            // Only where the topic is known without another pass over the file.
+            let odom_topic = match (&options.odom_topic, needs_survey) {
+                (Some(t), _) => Some(t.clone()),
+                (None, true) => only_topic(
+                    path,
+                    &topics,
+                    "nav_msgs/Odometry",
+                    Connection::is_odometry,
+                    "--odom-topic",
+                )
+                .ok(),
+                (None, false) => None,
+            };
+            odom_topic.and_then(|t| {
+                let source = open_for(std::slice::from_ref(&t)).ok()?;
+                Some(OdomTrack::new(source, path, t, options.skip_bad))
+            })
         } else {
             None
         };
@@ -128,6 +157,7 @@ impl RosScanReader {
             topic,
             index: 0,
             odom,
+            witness: !options.odometry && options.witness_odometry,
             stats: RosStats::default(),
             skip_bad: options.skip_bad,
         })
@@ -201,10 +231,21 @@ impl RosScanReader {
                 }
             };
             let mut scan = msg.to_range_scan();
-            if let Some(odom) = &mut self.odom {
-                let (pose, outside) = odom.at(msg.stamp.nanos())?;
-                scan.odom_from_robot = Some(pose);
-                self.stats.scans_outside_odometry += u64::from(outside);
+            let odometry = self.odom.as_mut().map(|odom| odom.at(msg.stamp.nanos()));
+            match odometry {
+                None => {}
+                Some(Ok((pose, outside))) if self.witness => {
+                    scan.odom_from_robot = Some(pose).filter(|_| !outside);
+                }
+                Some(Ok((pose, outside))) => {
+                    scan.odom_from_robot = Some(pose);
+                    self.stats.scans_outside_odometry += u64::from(outside);
+                }
+                Some(Err(e)) if self.witness => {
+                    self.odom = None;
+                    self.stats.odometry_dropped = Some(e.to_string());
+                }
+                Some(Err(e)) => return Err(e),
             }
             let valid = scan.valid_count() as u64;
             self.stats.valid_readings += valid;

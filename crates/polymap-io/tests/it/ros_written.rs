@@ -401,3 +401,69 @@ fn several_laser_topics_in_mcap_are_listed_from_the_summary() {
         .to_string();
     assert!(e.contains("/front (4 messages), /rear (3 messages)"), "{e}");
 }
+
+/// Without `odometry`, `witness_odometry` attaches the file's only odometry topic where the
+/// file is surveyed anyway: none outside the odometry's time span, none when the laser topic is
+/// named (no survey), and odometry that cannot be read is dropped, not an error.
+#[test]
+fn odometry_witnesses_best_effort_without_the_odometry_prior() {
+    let dir = tempfile::tempdir().unwrap();
+    let witness = LogOptions {
+        witness_odometry: true,
+        ..LogOptions::default()
+    };
+    // Odometry at 9 s and 10.3 s (whole seconds only: at 9 s and 10 s); scans at 10.0, 10.2,
+    // 10.4 s: the third lies beyond the last odometry message.
+    let path = dir.path().join("odom.bag");
+    let odom = [
+        (9, Pose2::new(0.0, 0.0, 0.0)),
+        (10, Pose2::new(1.0, 0.0, 0.0)),
+    ];
+    custom_bag(&path, &["/scan"], &odom);
+    let read = read_all(&path, &witness).unwrap();
+    assert_eq!(read[0].odom_from_robot, Some(Pose2::new(1.0, 0.0, 0.0)));
+    assert!(read[1..].iter().all(|s| s.odom_from_robot.is_none()));
+    // The odometry prior takes the nearest pose there instead.
+    let prior = read_all(&path, &with_odometry()).unwrap();
+    assert!(prior.iter().all(|s| s.odom_from_robot.is_some()));
+    // No odometry topic: no witness, and no error.
+    let none = dir.path().join("none.bag");
+    custom_bag(&none, &["/scan"], &[]);
+    assert!(
+        read_all(&none, &witness)
+            .unwrap()
+            .iter()
+            .all(|s| s.odom_from_robot.is_none())
+    );
+    // The laser topic named: the file is not surveyed for the odometry's.
+    let named = LogOptions {
+        topic: Some("/scan".into()),
+        ..witness.clone()
+    };
+    assert!(
+        read_all(&path, &named)
+            .unwrap()
+            .iter()
+            .all(|s| s.odom_from_robot.is_none())
+    );
+    // An odometry topic that is not odometry: dropped, said why, and the scans read on.
+    let wrong = LogOptions {
+        odom_topic: Some("/scan".into()),
+        ..witness
+    };
+    let mut log = LogSource::open(&path, &wrong).unwrap();
+    let mut n = 0;
+    while let Some(s) = log.next_scan().unwrap() {
+        assert!(s.odom_from_robot.is_none());
+        n += 1;
+    }
+    assert_eq!(n, 3);
+    let dropped = log.stats().odometry_dropped.expect("dropped");
+    assert!(dropped.contains("not nav_msgs/Odometry"), "{dropped}");
+    assert!(
+        log.carmen_stats()
+            .warnings()
+            .iter()
+            .any(|w| w.contains("no odometry witnesses the steps"))
+    );
+}
