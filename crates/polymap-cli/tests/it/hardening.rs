@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use crate::support::{polymap, text};
+use crate::support::{map_quietly, polymap, text};
 
 /// A simulated office log (whole) in `dir`.
 fn office_log(dir: &Path) -> PathBuf {
@@ -633,32 +633,38 @@ fn eval_map_measures_the_shape_after_aligning_and_the_placement_apart() {
     assert!(v["walls_unaligned"]["precision"].as_f64().unwrap() <= p + 1e-9);
 }
 
-/// A 1 km odometry jump with --odometry was accepted in silence (mean error 261 m on Intel):
-/// now it is counted, warned about, and that scan's odometry is not used.
-#[test]
-fn an_odometry_jump_is_warned_and_does_not_wreck_the_map() {
-    let dir = tempfile::tempdir().unwrap();
-    let log = office_log(dir.path());
+/// Copies the CARMEN log `from` to `to`, moving the laser and odometry poses of the `k`-th
+/// FLASER scan (1-based) by `shift(k)` metres along x where it says so.
+fn shift_odometry(from: &Path, to: &Path, shift: impl Fn(usize) -> Option<f64>) {
     let mut k = 0;
-    let jumped: String = fs::read_to_string(&log)
+    let shifted: String = fs::read_to_string(from)
         .unwrap()
         .lines()
         .map(|l| {
             let mut f: Vec<String> = l.split_whitespace().map(str::to_owned).collect();
             if f.first().map(String::as_str) == Some("FLASER") {
                 k += 1;
-                if k >= 500 {
+                if let Some(dx) = shift(k) {
                     let i = 2 + f[1].parse::<usize>().unwrap();
                     for j in [i, i + 3] {
-                        f[j] = (f[j].parse::<f64>().unwrap() + 1000.0).to_string();
+                        f[j] = (f[j].parse::<f64>().unwrap() + dx).to_string();
                     }
                 }
             }
             f.join(" ") + "\n"
         })
         .collect();
+    fs::write(to, shifted).unwrap();
+}
+
+/// A 1 km odometry jump with --odometry was accepted in silence (mean error 261 m on Intel):
+/// now it is counted, warned about, and that scan's odometry is not used.
+#[test]
+fn an_odometry_jump_is_warned_and_does_not_wreck_the_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = office_log(dir.path());
     let jump = dir.path().join("jump.clf");
-    fs::write(&jump, jumped).unwrap();
+    shift_odometry(&log, &jump, |k| (k >= 500).then_some(1000.0));
     let run = dir.path().join("run");
     let o = polymap(&[
         "map",
@@ -697,35 +703,11 @@ fn an_odometry_jump_is_warned_and_does_not_wreck_the_map() {
 fn steps_the_logs_odometry_contradicts_are_warned_without_changing_the_map() {
     let dir = tempfile::tempdir().unwrap();
     let clean = office_log(dir.path());
-    let mut k = 0;
-    let spiked: String = fs::read_to_string(&clean)
-        .unwrap()
-        .lines()
-        .map(|l| {
-            let mut f: Vec<String> = l.split_whitespace().map(str::to_owned).collect();
-            if f.first().map(String::as_str) == Some("FLASER") {
-                k += 1;
-                if k >= 300 && k % 100 == 0 {
-                    let i = 2 + f[1].parse::<usize>().unwrap();
-                    for j in [i, i + 3] {
-                        f[j] = (f[j].parse::<f64>().unwrap() + 0.5).to_string();
-                    }
-                }
-            }
-            f.join(" ") + "\n"
-        })
-        .collect();
     let log = dir.path().join("spiked.clf");
-    fs::write(&log, spiked).unwrap();
+    shift_odometry(&clean, &log, |k| (k >= 300 && k % 100 == 0).then_some(0.5));
     let run = |log: &Path, name: &str| {
         let out = dir.path().join(name);
-        let o = polymap(&[
-            "map",
-            log.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "-q",
-        ]);
+        let o = map_quietly(log, &out, &[]);
         assert!(o.status.success(), "{}", text(&o));
         let summary: serde_json::Value =
             serde_json::from_str(&fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
@@ -769,13 +751,7 @@ fn a_ros_recordings_odometry_witnesses_the_steps_without_the_odometry_prior() {
     assert!(o.status.success(), "{}", text(&o));
     let run = dir.path().join("run");
     let mcap = dir.path().join("office.mcap");
-    let o = polymap(&[
-        "map",
-        mcap.to_str().unwrap(),
-        "-o",
-        run.to_str().unwrap(),
-        "-q",
-    ]);
+    let o = map_quietly(&mcap, &run, &[]);
     assert!(o.status.success(), "{}", text(&o));
     let summary: serde_json::Value =
         serde_json::from_str(&fs::read_to_string(run.join("summary.json")).unwrap()).unwrap();
