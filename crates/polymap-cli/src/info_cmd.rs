@@ -68,7 +68,11 @@ fn ros_info(topics: &[TopicSummary]) {
     if odom.is_empty() {
         say!("odometry: none (map without --odometry)");
     } else {
-        say!("odometry: {}", odom.join(", "));
+        say!(
+            "odometry: {} (map with --odometry to track from it; without, it witnesses the \
+             tracked steps: the only topic, or --odom-topic's)",
+            odom.join(", ")
+        );
     }
 }
 
@@ -176,9 +180,12 @@ fn carmen_info(a: &InfoArgs) -> Result<()> {
     say!("  stamps {lo:.6} to {hi:.6} ({:.3} s)", hi - lo);
     let odometry = match with_odometry {
         0 => "none".to_string(),
-        n if n == s.scans => "in every scan line (map with --odometry to use it)".to_string(),
+        n if n == s.scans => "in every scan line (map with --odometry to track from it; \
+                              without, it witnesses the tracked steps)"
+            .to_string(),
         n => format!(
-            "in {n} of {} scan lines (map with --odometry to use it)",
+            "in {n} of {} scan lines (map with --odometry to track from it; without, it \
+             witnesses the tracked steps)",
             s.scans
         ),
     };
