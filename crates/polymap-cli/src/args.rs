@@ -164,7 +164,8 @@ pub struct MapArgs {
     /// ROS: the sensor_msgs/LaserScan topic (default: the only one in the file).
     #[arg(long)]
     pub topic: Option<String>,
-    /// ROS with --odometry: the nav_msgs/Odometry topic (default: the only one in the file).
+    /// ROS: the nav_msgs/Odometry topic (default: the only one in the file) that --odometry
+    /// tracks from, or that otherwise witnesses the tracked steps.
     #[arg(long)]
     pub odom_topic: Option<String>,
     /// Output directory (created if missing).

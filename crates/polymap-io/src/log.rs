@@ -118,9 +118,11 @@ pub struct LogStats {
     pub valid_readings: u64,
     /// ROS with odometry: scans outside the odometry's time span (given the nearest pose).
     pub scans_outside_odometry: u64,
-    /// ROS without odometry: why the odometry that witnessed the steps was dropped, when it
-    /// was.
+    /// ROS without odometry: why the file's odometry witnesses no step, or none from some
+    /// scan on ([`crate::ros::RosStats::odometry_dropped`]).
     pub odometry_dropped: Option<String>,
+    /// ROS without odometry: witnessing odometry messages that did not decode, skipped.
+    pub odometry_bad_messages: u64,
 }
 
 enum Inner {
@@ -227,6 +229,7 @@ impl LogSource {
                     valid_readings: s.valid_readings,
                     scans_outside_odometry: 0,
                     odometry_dropped: None,
+                    odometry_bad_messages: 0,
                 }
             }
             Inner::Ros(r) => {
@@ -244,6 +247,7 @@ impl LogSource {
                     valid_readings: s.valid_readings,
                     scans_outside_odometry: s.scans_outside_odometry,
                     odometry_dropped: s.odometry_dropped,
+                    odometry_bad_messages: s.odometry_bad_messages,
                 }
             }
         }
@@ -268,13 +272,15 @@ impl LogSource {
                     valid_readings: s.valid_readings,
                     other_warnings: s
                         .odometry_dropped
-                        .map(|e| {
-                            format!(
-                                "the odometry could not be read ({e}); from then on no \
-                                 odometry witnesses the steps"
-                            )
-                        })
+                        .map(|e| format!("no odometry witnesses the steps (from then on): {e}"))
                         .into_iter()
+                        .chain((s.odometry_bad_messages > 0).then(|| {
+                            format!(
+                                "{} odometry message(s) did not decode and were skipped; the \
+                                 odometry witnesses the steps without them",
+                                s.odometry_bad_messages
+                            )
+                        }))
                         .collect(),
                     ..CarmenStats::default()
                 }

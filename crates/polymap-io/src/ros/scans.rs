@@ -13,6 +13,11 @@ use super::source::{Connection, MessageSource, ReadLimits};
 use super::survey::{TopicSummary, survey};
 use super::{RosFormat, open_source, open_source_for_topics};
 
+/// Witnessing odometry ([`RosScanOptions::witness_odometry`]) is interpolated only between
+/// messages at most this far apart, nanoseconds: across a longer gap a scan gets none (the
+/// CARMEN reader's stale-odometry bound, 1 s).
+const WITNESS_MAX_BRACKET_NS: i128 = 1_000_000_000;
+
 /// How many skipped-message errors are kept for the warning.
 const MAX_BAD_MESSAGES: usize = 10;
 
@@ -58,9 +63,13 @@ pub struct RosStats {
     pub valid_readings: u64,
     /// Scans outside the odometry's time span, given the nearest odometry pose.
     pub scans_outside_odometry: u64,
-    /// With [`RosScanOptions::witness_odometry`]: why the witness odometry was dropped,
-    /// when it was (the scans from then on carry none).
+    /// With [`RosScanOptions::witness_odometry`]: why the file's odometry witnesses no step,
+    /// or none from some scan on (several odometry topics, one that does not open or
+    /// decode); `None` while it witnesses, or where the file has none.
     pub odometry_dropped: Option<String>,
+    /// With [`RosScanOptions::witness_odometry`] and `skip_bad`: odometry messages that did
+    /// not decode, skipped (not counted in `bad_messages`: the run asked for no odometry).
+    pub odometry_bad_messages: u64,
 }
 
 /// Streams the scans of one `LaserScan` topic in file order.
@@ -117,6 +126,7 @@ impl RosScanReader {
                 "--topic",
             )?,
         };
+        let mut witness_dropped = None;
         let odom = if options.odometry {
             let odom_topic = match &options.odom_topic {
                 Some(t) => t.clone(),
@@ -131,9 +141,13 @@ impl RosScanReader {
             let source = open_for(std::slice::from_ref(&odom_topic))?;
             Some(OdomTrack::new(source, path, odom_topic, options.skip_bad))
         } else if options.witness_odometry {
-            // Only where the topic is known without another pass over the file.
-            let odom_topic = match (&options.odom_topic, needs_survey) {
-                (Some(t), _) => Some(t.clone()),
+            // Only where the topic is known without another pass over the file; several
+            // odometry topics, or one that does not open, are said why, not an error.
+            let has_odometry = topics
+                .iter()
+                .any(|t| t.connection.is_odometry() && t.messages > 0);
+            let odom_topic = match (&options.odom_topic, needs_survey && has_odometry) {
+                (Some(t), _) => Ok(Some(t.clone())),
                 (None, true) => only_topic(
                     path,
                     &topics,
@@ -141,13 +155,20 @@ impl RosScanReader {
                     Connection::is_odometry,
                     "--odom-topic",
                 )
-                .ok(),
-                (None, false) => None,
+                .map(Some),
+                (None, false) => Ok(None),
             };
-            odom_topic.and_then(|t| {
-                let source = open_for(std::slice::from_ref(&t)).ok()?;
-                Some(OdomTrack::new(source, path, t, options.skip_bad))
-            })
+            match odom_topic.and_then(|t| match t {
+                Some(t) => open_for(std::slice::from_ref(&t))
+                    .map(|source| Some(OdomTrack::new(source, path, t, options.skip_bad))),
+                None => Ok(None),
+            }) {
+                Ok(track) => track,
+                Err(e) => {
+                    witness_dropped = Some(e.to_string());
+                    None
+                }
+            }
         } else {
             None
         };
@@ -158,7 +179,10 @@ impl RosScanReader {
             index: 0,
             odom,
             witness: !options.odometry && options.witness_odometry,
-            stats: RosStats::default(),
+            stats: RosStats {
+                odometry_dropped: witness_dropped,
+                ..RosStats::default()
+            },
             skip_bad: options.skip_bad,
         })
     }
@@ -181,7 +205,12 @@ impl RosScanReader {
         }
         if let Some(odom) = &self.odom {
             stats.odometry_messages = odom.read;
-            stats.bad_messages += odom.bad;
+            // Odometry only witnessing: its bad messages are its own (a run that asked for no
+            // odometry has no bad input there).
+            match self.witness {
+                true => stats.odometry_bad_messages = odom.bad,
+                false => stats.bad_messages += odom.bad,
+            }
         }
         stats
     }
@@ -234,15 +263,21 @@ impl RosScanReader {
             let odometry = self.odom.as_mut().map(|odom| odom.at(msg.stamp.nanos()));
             match odometry {
                 None => {}
-                Some(Ok((pose, outside))) if self.witness => {
-                    scan.odom_from_robot = Some(pose).filter(|_| !outside);
+                // Witnessing: none outside the odometry's span, nor across a gap in it (the
+                // interpolation over a gap would read a straight line the robot did not take).
+                Some(Ok((pose, outside, bracket_ns))) if self.witness => {
+                    scan.odom_from_robot =
+                        Some(pose).filter(|_| !outside && bracket_ns <= WITNESS_MAX_BRACKET_NS);
                 }
-                Some(Ok((pose, outside))) => {
+                Some(Ok((pose, outside, _))) => {
                     scan.odom_from_robot = Some(pose);
                     self.stats.scans_outside_odometry += u64::from(outside);
                 }
                 Some(Err(e)) if self.witness => {
-                    self.odom = None;
+                    if let Some(odom) = self.odom.take() {
+                        self.stats.odometry_messages = odom.read;
+                        self.stats.odometry_bad_messages = odom.bad;
+                    }
                     self.stats.odometry_dropped = Some(e.to_string());
                 }
                 Some(Err(e)) => return Err(e),
@@ -314,7 +349,6 @@ fn only_topic(
     match of_type.as_slice() {
         [one] => Ok(one.connection.topic.clone()),
         [] => {
-            let all: Vec<&TopicSummary> = topics.iter().collect();
             let all_listing = topics
                 .iter()
                 .map(|t| {
@@ -325,7 +359,6 @@ fn only_topic(
                 })
                 .collect::<Vec<_>>()
                 .join(", ");
-            let _ = all;
             Err(RosError::Topics {
                 path: path.to_path_buf(),
                 problem: format!(
@@ -381,9 +414,10 @@ impl OdomTrack {
         }
     }
 
-    /// The pose at `t_ns`, and whether `t_ns` was outside the odometry's span (then the
-    /// nearest pose is given).
-    fn at(&mut self, t_ns: i128) -> Result<(Pose2, bool), RosError> {
+    /// The pose at `t_ns`, whether `t_ns` was outside the odometry's span (then the nearest
+    /// pose is given), and how far apart the messages it was interpolated between are,
+    /// nanoseconds (0 for a message at `t_ns`, or outside).
+    fn at(&mut self, t_ns: i128) -> Result<(Pose2, bool, i128), RosError> {
         while !self.done && self.next.is_none_or(|(tn, _)| tn < t_ns) {
             match self.read_next()? {
                 Some(sample) => {
@@ -395,13 +429,13 @@ impl OdomTrack {
             }
         }
         match (self.prev, self.next) {
-            (_, Some((tn, pn))) if tn == t_ns => Ok((pn, false)),
+            (_, Some((tn, pn))) if tn == t_ns => Ok((pn, false, 0)),
             (Some((tp, pp)), Some((tn, pn))) if tp <= t_ns && t_ns < tn => {
                 let f = ((t_ns - tp) as f64) / ((tn - tp) as f64);
-                Ok((pp.interpolate(&pn, f), false))
+                Ok((pp.interpolate(&pn, f), false, tn - tp))
             }
-            (_, Some((_, pn))) => Ok((pn, true)),
-            (Some((_, pp)), None) => Ok((pp, true)),
+            (_, Some((_, pn))) => Ok((pn, true, 0)),
+            (Some((_, pp)), None) => Ok((pp, true, 0)),
             (None, None) => Err(RosError::Topics {
                 path: self.path.clone(),
                 problem: format!("no odometry messages on topic {}", self.topic),

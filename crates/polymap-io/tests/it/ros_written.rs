@@ -432,6 +432,21 @@ fn odometry_witnesses_best_effort_without_the_odometry_prior() {
     // The odometry prior takes the nearest pose there instead.
     let prior = read_all(&path, &with_odometry()).unwrap();
     assert!(prior.iter().all(|s| s.odom_from_robot.is_some()));
+    // Odometry 2 s apart (9 s and 11 s): a gap a witness does not interpolate across, though
+    // the odometry prior does.
+    let gapped = dir.path().join("gapped.bag");
+    let wide = [
+        (9, Pose2::new(0.0, 0.0, 0.0)),
+        (11, Pose2::new(2.0, 0.0, 0.0)),
+    ];
+    custom_bag(&gapped, &["/scan"], &wide);
+    assert!(unwitnessed(&gapped, &witness));
+    assert!(
+        read_all(&gapped, &with_odometry())
+            .unwrap()
+            .iter()
+            .all(|s| s.odom_from_robot.is_some())
+    );
     // No odometry topic: no witness, and no error.
     let none = dir.path().join("none.bag");
     custom_bag(&none, &["/scan"], &[]);
