@@ -131,3 +131,50 @@ fn info_describes_a_carmen_log_in_its_terms() {
     assert!(s.contains("laser: 360 beams"), "{s}");
     assert!(s.contains("360.0° covered"), "{s}");
 }
+
+/// A ROS recording's odometry witnesses the steps without `--odometry`: the simulated hallway
+/// as MCAP, its odometry 0.5 m ahead on every 100th scan from the 300th, warns and counts the
+/// steps off (two per spike), with the trajectory and map of the clean recording.
+#[test]
+fn a_spiked_ros_odometry_is_warned_without_changing_the_map() {
+    use polymap::geometry::Pose2;
+    use polymap_io::carmen::{CarmenReader, ReaderOptions};
+    use polymap_io::ros::mcap_file::McapCompression;
+    use polymap_io::ros::write_mcap;
+
+    let dir = tempfile::tempdir().unwrap();
+    simulate_ros(dir.path(), 180);
+    let mut reader =
+        CarmenReader::open(dir.path().join("hallway45.clf"), ReaderOptions::default()).unwrap();
+    let mut scans = Vec::new();
+    while let Some(scan) = reader.next_scan().unwrap() {
+        scans.push(scan);
+    }
+    for (k, scan) in scans.iter_mut().enumerate() {
+        if k >= 300 && k % 100 == 0 {
+            let o = scan.odom_from_robot.expect("the simulator writes odometry");
+            scan.odom_from_robot = Some(Pose2::new(o.x_m + 0.5, o.y_m, o.theta_rad));
+        }
+    }
+    let spiked = dir.path().join("spiked.mcap");
+    write_mcap(&spiked, &scans, McapCompression::None).unwrap();
+    let out = dir.path().join("out-spiked");
+    let o = map_quietly(&spiked, &out, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(stderr.contains("off the log's odometry"), "{stderr}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let off = summary["tracking"]["off_odometry"].as_u64().unwrap();
+    let spikes = (300..scans.len()).step_by(100).count() as u64;
+    assert!(
+        off >= spikes && off <= 2 * spikes,
+        "{off} steps off for {spikes} spikes"
+    );
+    let (clean_map, clean_trajectory) = map_outputs(dir.path(), "mcap", "clean", &[]);
+    assert_eq!(std::fs::read(out.join("map.json")).unwrap(), clean_map);
+    assert_eq!(
+        std::fs::read(out.join("trajectory.tum")).unwrap(),
+        clean_trajectory
+    );
+}
