@@ -281,6 +281,14 @@ impl LogSource {
                                 s.odometry_bad_messages
                             )
                         }))
+                        .chain((s.scans_outside_odometry > 0).then(|| {
+                            format!(
+                                "{} scan(s) stamped outside the odometry's time span took the \
+                                 nearest odometry pose (the robot moved there as far as \
+                                 --odometry knows: not at all)",
+                                s.scans_outside_odometry
+                            )
+                        }))
                         .collect(),
                     ..CarmenStats::default()
                 }

@@ -432,6 +432,17 @@ fn odometry_witnesses_best_effort_without_the_odometry_prior() {
     // The odometry prior takes the nearest pose there instead.
     let prior = read_all(&path, &with_odometry()).unwrap();
     assert!(prior.iter().all(|s| s.odom_from_robot.is_some()));
+    // ...and says so.
+    let mut log = LogSource::open(&path, &with_odometry()).unwrap();
+    while log.next_scan().unwrap().is_some() {}
+    assert_eq!(log.stats().scans_outside_odometry, 2);
+    let warnings = log.carmen_stats().warnings();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("2 scan(s) stamped outside the odometry's time span")),
+        "{warnings:?}"
+    );
     // Odometry 2 s apart (9 s and 11 s): a gap a witness does not interpolate across, though
     // the odometry prior does.
     let gapped = dir.path().join("gapped.bag");
