@@ -378,6 +378,7 @@ fn reader_json(s: &CarmenStats) -> serde_json::Value {
         "odometry_dropped_for_jumps": s.odometry_jumps.count,
         "odometry_interpolated_stale": s.stale_odometry.count,
         "odometry_stale_kept": s.stale_odometry_kept.count,
+        "other_warnings": s.other_warnings,
     })
 }
 

@@ -166,6 +166,7 @@ fn a_spiked_ros_odometry_is_warned_without_changing_the_map() {
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let off = summary["tracking"]["off_odometry"].as_u64().unwrap();
+    assert_eq!(summary["reader"]["other_warnings"], serde_json::json!([]));
     let spikes = (300..scans.len()).step_by(100).count() as u64;
     assert!(
         off >= spikes && off <= 2 * spikes,
