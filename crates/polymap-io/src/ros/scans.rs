@@ -141,12 +141,13 @@ impl RosScanReader {
             let source = open_for(std::slice::from_ref(&odom_topic))?;
             Some(OdomTrack::new(source, path, odom_topic, options.skip_bad))
         } else if options.witness_odometry {
-            // Only where the topic is known without another pass over the file; several
-            // odometry topics, or one that does not open, are said why, not an error.
+            // Only where the topic is named or the survey (run for the laser topic anyway, so
+            // `topics` is empty without it) found odometry; several odometry topics, or one
+            // that does not open, are said why, not an error.
             let has_odometry = topics
                 .iter()
                 .any(|t| t.connection.is_odometry() && t.messages > 0);
-            let odom_topic = match (&options.odom_topic, needs_survey && has_odometry) {
+            let odom_topic = match (&options.odom_topic, has_odometry) {
                 (Some(t), _) => Ok(Some(t.clone())),
                 (None, true) => only_topic(
                     path,
@@ -158,17 +159,18 @@ impl RosScanReader {
                 .map(Some),
                 (None, false) => Ok(None),
             };
-            match odom_topic.and_then(|t| match t {
-                Some(t) => open_for(std::slice::from_ref(&t))
-                    .map(|source| Some(OdomTrack::new(source, path, t, options.skip_bad))),
-                None => Ok(None),
-            }) {
-                Ok(track) => track,
-                Err(e) => {
-                    witness_dropped = Some(e.to_string());
-                    None
-                }
-            }
+            let track = odom_topic.and_then(|topic| {
+                topic
+                    .map(|t| {
+                        open_for(std::slice::from_ref(&t))
+                            .map(|source| OdomTrack::new(source, path, t, options.skip_bad))
+                    })
+                    .transpose()
+            });
+            track.unwrap_or_else(|e| {
+                witness_dropped = Some(e.to_string());
+                None
+            })
         } else {
             None
         };

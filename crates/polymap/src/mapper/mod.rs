@@ -288,18 +288,21 @@ impl TrackingSummary {
     /// at least `min_travel_m` of tracked travel: odometry that is stuck, scaled or not the
     /// robot's (see [`TrackingSummary::tracked_travel_m`]).
     pub fn odometry_disagrees_with_travel(&self, min_travel_m: f64) -> bool {
-        let (odo, scans) = (self.odometry_travel_m, self.tracked_travel_m);
-        scans >= min_travel_m && (odo < 0.5 * scans || odo > 2.0 * scans)
+        self.odometry_within(min_travel_m, 2.0) == Some(false)
     }
 
     /// Whether the log's odometry travelled within [`ODOMETRY_WITNESS_WITHIN`] of what the
     /// scans did (see [`TrackingSummary::odometry_travel_m`]), over at least `min_travel_m` of
     /// tracked travel: odometry fit to witness the steps.
     pub fn odometry_agrees_with_travel(&self, min_travel_m: f64) -> bool {
+        self.odometry_within(min_travel_m, ODOMETRY_WITNESS_WITHIN) == Some(true)
+    }
+
+    /// Over at least `min_travel_m` of tracked travel, whether the odometry's travel lies
+    /// within `factor` of the scans' either way; `None` below it.
+    fn odometry_within(&self, min_travel_m: f64, factor: f64) -> Option<bool> {
         let (odo, scans) = (self.odometry_travel_m, self.tracked_travel_m);
-        scans >= min_travel_m
-            && odo >= scans / ODOMETRY_WITNESS_WITHIN
-            && odo <= scans * ODOMETRY_WITNESS_WITHIN
+        (scans >= min_travel_m).then(|| odo >= scans / factor && odo <= scans * factor)
     }
 
     /// Counts scan `t` as tracked off the log's odometry.
