@@ -427,17 +427,6 @@ impl SegmentLookup for GlobalMap {
     fn nearest_certified(&self, p: Vec2) -> Option<NearestCertificate> {
         Some(self.grid.nearest_certified(p))
     }
-
-    fn nearest_segment_inside(
-        &self,
-        p: Vec2,
-        max_distance_m: f64,
-        margin_m: f64,
-    ) -> Option<Segment> {
-        self.grid
-            .nearest_inside(p, max_distance_m, margin_m)
-            .map(|(_, s)| s)
-    }
 }
 
 #[cfg(test)]

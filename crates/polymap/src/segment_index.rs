@@ -268,35 +268,7 @@ impl<K: Copy + Ord> SegmentIndex<K> {
             .map(|e| (e.key, e.segment))
     }
 
-    /// The nearest segment within `max_distance_m` of `p` onto whose inside `p` projects: at
-    /// least `margin_m` from either end (a segment shorter than twice that has no inside);
-    /// ties go to the smaller key.
-    pub fn nearest_inside(
-        &self,
-        p: Vec2,
-        max_distance_m: f64,
-        margin_m: f64,
-    ) -> Option<(K, Segment)> {
-        self.nearest_entry_where(p, max_distance_m, |e, t| {
-            let len = e.vector.length();
-            let m = margin_m / len;
-            len > 0.0 && t >= m && t <= 1.0 - m
-        })
-        .map(|e| (e.key, e.segment))
-    }
-
-    fn nearest_entry(&self, p: Vec2, max_distance_m: f64) -> Option<&Entry<K>> {
-        self.nearest_entry_where(p, max_distance_m, |_, _| true)
-    }
-
-    /// The nearest entry within `max_distance_m` of `p` that `keep` accepts (given the entry
-    /// and the projection parameter of `p` on it, clamped to `[0, 1]`).
-    fn nearest_entry_where<'a>(
-        &'a self,
-        p: Vec2,
-        max_distance_m: f64,
-        keep: impl Fn(&Entry<K>, f64) -> bool,
-    ) -> Option<&'a Entry<K>> {
+    fn nearest_entry<'a>(&'a self, p: Vec2, max_distance_m: f64) -> Option<&'a Entry<K>> {
         let max_2 = max_distance_m * max_distance_m;
         let mut best: Option<(f64, &'a Entry<K>)> = None;
         // Within `p`'s own cell the floors bound the distance from `p`: entries come by
@@ -307,11 +279,8 @@ impl<K: Copy + Ord> SegmentIndex<K> {
                 if own_cell && (e.floor_2 > max_2 || best.is_some_and(|(bd, _)| e.floor_2 > bd)) {
                     break;
                 }
-                let (d_2, t) = e.distance_2(p);
-                if d_2 <= max_2
-                    && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key))
-                    && keep(e, t)
-                {
+                let (d_2, _) = e.distance_2(p);
+                if d_2 <= max_2 && best.is_none_or(|(bd, be)| (d_2, e.key) < (bd, be.key)) {
                     best = Some((d_2, e));
                 }
             }
@@ -664,19 +633,6 @@ mod tests {
                 prop_assert_eq!(index.nearest_anywhere(q).map(|n| n.0), brute(&segs, q, f64::INFINITY));
                 prop_assert_eq!(index.nearest(q, d).map(|n| n.0), brute(&segs, q, d));
                 prop_assert_eq!(index.any_within(q, d), brute(&segs, q, d).is_some());
-                // Among the segments `q` projects inside of (0.3 m from either end).
-                let inside: Vec<Segment> = segs
-                    .iter()
-                    .map(|s| {
-                        let (len, t) = (s.length(), s.project(q).t);
-                        let m = 0.3 / len;
-                        match len > 0.0 && t >= m && t <= 1.0 - m {
-                            true => *s,
-                            false => Segment::new(Vec2::splat(1e9), Vec2::splat(1e9)),
-                        }
-                    })
-                    .collect();
-                prop_assert_eq!(index.nearest_inside(q, d, 0.3).map(|n| n.0), brute(&inside, q, d));
             }
         }
 

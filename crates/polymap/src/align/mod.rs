@@ -270,18 +270,6 @@ pub trait SegmentLookup {
     fn nearest_certified(&self, _p: Vec2) -> Option<NearestCertificate> {
         None
     }
-
-    /// The nearest segment within `max_distance_m` of `p` onto whose inside `p` projects (at
-    /// least `margin_m` from either end); `None` when there is none, or when the implementation
-    /// cannot tell.
-    fn nearest_segment_inside(
-        &self,
-        _p: Vec2,
-        _max_distance_m: f64,
-        _margin_m: f64,
-    ) -> Option<Segment> {
-        None
-    }
 }
 
 #[cfg(test)]

@@ -23,14 +23,4 @@ impl<K: Copy + Ord> super::SegmentLookup for SegmentIndex<K> {
     fn nearest_certified(&self, p: Vec2) -> Option<NearestCertificate> {
         Some(SegmentIndex::nearest_certified(self, p))
     }
-
-    fn nearest_segment_inside(
-        &self,
-        p: Vec2,
-        max_distance_m: f64,
-        margin_m: f64,
-    ) -> Option<Segment> {
-        self.nearest_inside(p, max_distance_m, margin_m)
-            .map(|(_, s)| s)
-    }
 }

@@ -10,10 +10,6 @@ use crate::segment_index::NearestCertificate;
 /// point to line or point to point): a loose point is a sample, not a mapped wall.
 pub const LOOSE_GATE_M: f64 = 0.3;
 
-/// A beam whose direction has a component under this along a segment's normal (it runs
-/// within about 15° of the segment's line) sees the segment edge on.
-pub const EDGE_ON_BELOW: f64 = 0.26;
-
 /// Keeps points at least `spacing_m` from the previously kept one (in order), so that close
 /// walls, sampled densely, do not outweigh far ones.
 ///
@@ -226,27 +222,6 @@ pub fn align_points_and_loose(
                 (along >= -params.endpoint_slack_m && along <= len + params.endpoint_slack_m)
                     .then_some((s, dir))
             });
-            // A beam that runs nearly along a segment ([`EDGE_ON_BELOW`]) cannot end on it: near
-            // its end (within the slack) the beam passes that end (a door jamb's, a box's or a
-            // pillar's face seen edge on) and hits what lies beyond, often the wall the end
-            // meets. Matched to the end's line, such a point, which moves with the robot, pins
-            // the robot's position along its way wherever nothing else observes it (a bare
-            // corridor). A segment the point lies inside (by the slack from either end), as
-            // near within the slack, takes it instead, or none.
-            let on_segment = on_segment.map(|(s, dir)| {
-                let slack = params.endpoint_slack_m;
-                let along = (q - s.start).dot(dir);
-                let beam = pose.rotate(p).normalize_or_zero();
-                let edge_on = beam.dot(dir.perp()).abs() < EDGE_ON_BELOW;
-                if !edge_on || slack <= 0.0 || (slack..=s.length() - slack).contains(&along) {
-                    return (s, dir);
-                }
-                let across = (q - s.start).dot(dir.perp()).abs();
-                match map.nearest_segment_inside(q, (across + slack).min(gate_m), slack) {
-                    Some(other) => (other, other.vector() / other.length()),
-                    None => (s, dir),
-                }
-            });
             let Some((s, dir)) = on_segment else {
                 if let Some(t) = targets {
                     t.constrain(p, q, gate_m.min(LOOSE_GATE_M), out);
@@ -265,54 +240,6 @@ pub fn align_points_and_loose(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Segment;
-    use crate::segment_index::SegmentIndex;
-
-    /// A corridor whose only mark along it is a box's face against its north wall (x = 0,
-    /// reaching a little past the wall, as a merged face does), and a robot beside that face:
-    /// its side beam hits the wall right by the face's end.
-    fn corridor_with_a_face(side_y: f64) -> (SegmentIndex<usize>, Vec<Vec2>) {
-        let map = SegmentIndex::from_segments(
-            &[
-                Segment::new(Vec2::new(-20.0, 1.2), Vec2::new(20.0, 1.2)),
-                Segment::new(Vec2::new(-20.0, -1.2), Vec2::new(20.0, -1.2)),
-                Segment::new(Vec2::new(0.0, 0.7), Vec2::new(0.0, 1.25)),
-            ],
-            0.5,
-            1.0,
-        );
-        let mut points: Vec<Vec2> = (1..=30)
-            .flat_map(|i| {
-                let x = 0.25 * f64::from(i);
-                [Vec2::new(x, 1.2), Vec2::new(x, -1.2)]
-            })
-            .collect();
-        points.push(Vec2::new(0.0, side_y));
-        (map, points)
-    }
-
-    /// A side beam that runs along a face and ends within the slack of its end, on the wall
-    /// the face meets, is matched to the wall: it says nothing along the corridor, which stays
-    /// the prior's (there, a robot believed beside a box's face was held there while it drove
-    /// on for 150 scans of the simulated ring). A point well inside the face is still matched
-    /// to it.
-    #[test]
-    fn a_point_by_a_faces_end_on_the_wall_it_meets_does_not_pin_the_robot() {
-        let params = AlignParams::default();
-        let at = Pose2::new(0.0, 0.0, 0.0);
-        let (map, points) = corridor_with_a_face(1.21);
-        // Nearer the face's line than the wall's: without the rule the face took it.
-        assert!(map.nearest(Vec2::new(0.0, 1.21), 0.5).unwrap().1.start.x == 0.0);
-        let r = align_points(&points, &map, at, at, &params);
-        assert!(r.weak_directions >= 1, "{r:?}");
-        assert!(r.translation_information.weakest < 1e-9, "{r:?}");
-        // Well inside the face (0.25 m from its end, the beam hitting it), the point is
-        // evidence along the corridor.
-        let (map, points) = corridor_with_a_face(1.0);
-        let r = align_points(&points, &map, at, at, &params);
-        assert_eq!(r.weak_directions, 0, "{r:?}");
-        assert!(r.translation_information.weakest > 0.5, "{r:?}");
-    }
 
     /// A line of points at any angle is a line whose normal is across it; a compact cluster
     /// is a blob; two points are no shape.
