@@ -1,6 +1,6 @@
 //! Counted warnings about what the reader accepted but found odd.
 
-use polymap::mapper::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
+use polymap::mapper::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary, WEAK_STRETCH_M};
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
 
@@ -18,8 +18,9 @@ pub fn report_reader_warnings(stats: &CarmenStats) {
 pub const WARN_OFF_ODOMETRY_ABOVE: f64 = 0.01;
 
 /// Says when tracking failed: the scans lost (not in the map), a large share of weak ones, or
-/// of steps the log's odometry contradicts (by more than `witness_m`, metres); and where scans
-/// are missing from the log (gaps in stamps that keep time).
+/// of steps the log's odometry contradicts (by more than `witness_m`, metres), and long
+/// stretches of weak ones ([`TrackingSummary::weak_stretches`]); and where scans are missing
+/// from the log (gaps in stamps that keep time).
 pub fn warn_tracking(t: &TrackingSummary, scans: usize, witness_m: f64) {
     if t.lost > 0 {
         let ranges: Vec<String> = t
@@ -80,6 +81,27 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize, witness_m: f64) {
              the map, and since the odometry's travel agrees with the scans', try --odometry \
              (summary.json: tracking.off_odometry)",
             t.off_odometry,
+            listed.join(", ")
+        );
+    }
+    if !t.weak_stretches.is_empty() {
+        let listed: Vec<String> = t
+            .weak_stretches
+            .iter()
+            .take(5)
+            .map(|w| format!("{}-{}: {:.1} m", w.first, w.last, w.travel_m))
+            .collect();
+        let more = if t.weak_stretches.len() > listed.len() {
+            ", ..."
+        } else {
+            ""
+        };
+        eprintln!(
+            "polymap: warning: tracking was weak for {} stretch(es) of at least {WEAK_STRETCH_M} \
+             m of travel (scans {}{more}): the motion along them came from the motion prior or \
+             from few points, so distances there may be off (a corridor tracked short); check \
+             the map there (summary.json: tracking.weak_stretches)",
+            t.weak_stretches.len(),
             listed.join(", ")
         );
     }

@@ -147,6 +147,43 @@ fn a_bare_corridor_is_driven_at_the_speed_last_observed() {
     }
 }
 
+/// The corridor's bare middle is listed as a long weak stretch (`tracking.weak_stretches`,
+/// which the run warns of): most of its bare scans lie in one; the worlds observable
+/// throughout list none.
+#[test]
+fn a_bare_middle_is_a_weak_stretch_and_observable_worlds_have_none() {
+    let (corridor, info) = mapped_densely("corridor");
+    let stretches = &corridor.summary.weak_stretches;
+    eprintln!("corridor: weak stretches {stretches:?}");
+    let bare = bare_scans(&info);
+    let inside = bare
+        .iter()
+        .filter(|&&i| {
+            stretches
+                .iter()
+                .any(|w| (w.first as usize..=w.last as usize).contains(&i))
+        })
+        .count();
+    assert!(
+        inside as f64 >= 0.9 * bare.len() as f64,
+        "{inside} of {} bare scans in a weak stretch",
+        bare.len()
+    );
+    assert!(
+        stretches
+            .iter()
+            .all(|w| w.travel_m >= polymap::mapper::WEAK_STRETCH_M)
+    );
+    for name in ["hall360", "hallway45", "office"] {
+        let run = mapped(name, 1, false, false);
+        assert!(
+            run.summary.weak_stretches.is_empty(),
+            "{name}: {:?}",
+            run.summary.weak_stretches
+        );
+    }
+}
+
 #[test]
 fn ring_bare_stretches_are_weak_or_lost() {
     check_bare_scans_flagged("ring");

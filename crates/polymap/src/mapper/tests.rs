@@ -456,3 +456,42 @@ fn odometry_that_cannot_witness_flags_nothing() {
     let blind = |i: usize| (60..64).contains(&i);
     assert_eq!(quiet(&|_, truth| *truth, &blind), (0, 0));
 }
+
+#[test]
+fn runs_of_weak_scans_over_ten_metres_are_weak_stretches() {
+    let mut t = TrackingSummary::default();
+    // Nine weak metres, then an `ok` scan: no stretch.
+    for i in 0..9 {
+        t.count_weak_step(i, true, 1.0, None);
+    }
+    t.count_weak_step(9, false, 1.0, None);
+    assert!(t.weak_stretches.is_empty());
+    // Weak from scan 10: listed once it reaches 10 m (scan 19), updated while it goes on,
+    // ended by a scan that is not weak.
+    for i in 10..25 {
+        t.count_weak_step(i, true, 1.0, Some(0.5));
+        let listed = t.weak_stretches.len();
+        assert_eq!(listed, usize::from(i >= 19), "scan {i}");
+    }
+    t.count_weak_step(25, false, 1.0, None);
+    let run = WeakStretch {
+        first: 10,
+        last: 24,
+        travel_m: 15.0,
+    };
+    assert_eq!(t.weak_stretches, vec![run]);
+    // A stall tracked at no motion where the log's odometry went on: the odometry's travel
+    // counts; a step that is not finite counts nothing.
+    for i in 30..42 {
+        t.count_weak_step(i, true, 0.0, Some(1.0));
+    }
+    t.count_weak_step(42, true, f64::NAN, Some(f64::INFINITY));
+    assert_eq!(t.weak_stretches.len(), 2);
+    assert_eq!(t.weak_stretches[1].first, 30);
+    assert_eq!(t.weak_stretches[1].last, 42);
+    assert!((t.weak_stretches[1].travel_m - 12.0).abs() < 1e-12);
+    // Serialized without the run going on.
+    let json = serde_json::to_string(&t).expect("json");
+    assert!(json.contains("\"weak_stretches\""), "{json}");
+    assert!(!json.contains("open_weak"), "{json}");
+}
