@@ -162,6 +162,13 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
             seen_through_share,
             warn_above,
         });
+    record.history.weak_stretches = record
+        .mapper
+        .tracking_summary()
+        .weak_stretches
+        .iter()
+        .map(|w| [w.first, w.last])
+        .collect();
     let pruned = a
         .prune_contradicted
         .then(|| record.mapper.prune_contradicted());

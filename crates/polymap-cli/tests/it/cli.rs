@@ -381,3 +381,39 @@ fn a_config_file_is_laid_over_the_preset_and_bad_values_are_refused() {
             .success()
     );
 }
+
+/// The simulated corridor's bare middle ends the run with the weak-stretch warning naming its
+/// scans, listed in `summary.json` and shaded on `report.html` (from `history.json`); the
+/// office, observable throughout, has none.
+#[test]
+fn a_bare_corridor_is_warned_of_as_weak_stretches() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path().to_str().unwrap();
+    for (world, stretches) in [("corridor", true), ("office", false)] {
+        assert!(polymap(&["simulate", world, "-o", d]).status.success());
+        let run = format!("{d}/{world}-run");
+        let log = format!("{d}/{world}.clf");
+        let o = polymap(&["map", &log, "-o", &run, "-q", "--export", "html"]);
+        assert!(o.status.success(), "{}", text(&o));
+        let warned = String::from_utf8_lossy(&o.stderr).contains("weak for 2 stretch(es)");
+        let summary: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(format!("{run}/summary.json")).unwrap())
+                .unwrap();
+        let listed = summary["tracking"]["weak_stretches"].as_array().unwrap();
+        let history: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(format!("{run}/history.json")).unwrap())
+                .unwrap();
+        let shaded = history["weak_stretches"].as_array().unwrap();
+        assert_eq!(warned, stretches, "{world}: {}", text(&o));
+        assert_eq!(
+            listed.len(),
+            if stretches { 2 } else { 0 },
+            "{world}: {listed:?}"
+        );
+        assert_eq!(shaded.len(), listed.len(), "{world}: {shaded:?}");
+        for (w, s) in listed.iter().zip(shaded) {
+            assert!(w["travel_m"].as_f64().unwrap() >= 10.0, "{w}");
+            assert_eq!((&w["first"], &w["last"]), (&s[0], &s[1]));
+        }
+    }
+}

@@ -35,6 +35,7 @@ struct Payload<'a> {
     off_odometry_scans: &'a [u32],
     off_odometry: u32,
     map_consistency: Option<MapConsistency>,
+    weak_stretches: &'a [[u32; 2]],
 }
 
 #[derive(Serialize)]
@@ -131,6 +132,7 @@ fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
         off_odometry_scans: &data.off_odometry_scans,
         off_odometry: data.off_odometry,
         map_consistency: data.map_consistency,
+        weak_stretches: &data.weak_stretches,
     }
 }
 

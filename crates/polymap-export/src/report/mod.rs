@@ -78,6 +78,11 @@ pub struct ReportData {
     /// scans observed the map; shown beside the counts.
     #[serde(default)]
     pub map_consistency: Option<MapConsistency>,
+    /// Inclusive ranges `[first, last]` of the run's weak stretches (`summary.json`
+    /// `tracking.weak_stretches`: consecutive weak scans over at least 10 m of travel), shaded
+    /// on the page's time lines; set by the caller from the mapper's summary.
+    #[serde(default)]
+    pub weak_stretches: Vec<[u32; 2]>,
 }
 
 /// At most this many gap marks are kept for the page (a log of dropouts has many; the count

@@ -241,6 +241,13 @@
       ctx.strokeStyle = colours[k]; ctx.lineWidth = 1.2; ctx.stroke();
     });
     axes(ctx, left, top, w, h, 0, xmax, ymin, ymax, niceTicks(xmax), '', list[0].unit);
+    // Weak stretches (consecutive weak scans over at least 10 m), a yellow band along the
+    // bottom.
+    ctx.fillStyle = 'rgba(220, 170, 0, 0.45)';
+    (D.weak_stretches || []).forEach(function (r) {
+      var x0 = left + w * r[0] / xmax, x1 = left + w * (r[1] + 1) / xmax;
+      ctx.fillRect(x0, top + h - Math.max(4, h / 6), Math.max(1, x1 - x0), Math.max(4, h / 6));
+    });
     // Scans where tracking was lost, shaded across the plot.
     ctx.fillStyle = 'rgba(200, 30, 30, 0.25)';
     (D.lost_ranges || []).forEach(function (r) {
@@ -282,9 +289,11 @@
     var lost = (D.lost_ranges || []).some(function (r) { return r[0] <= scan && scan <= r[1]; });
     var gap = (D.gap_scans || []).indexOf(scan) >= 0;
     var off = (D.off_odometry_scans || []).indexOf(scan) >= 0;
+    var stretch = (D.weak_stretches || []).some(function (r) { return r[0] <= scan && scan <= r[1]; });
     $('slider-label').textContent = 'scan ' + scan + (lost ? ' (tracking lost)' : '') +
       (gap ? ' (after a gap in the log)' : '') +
-      (off ? ' (step off the odometry)' : '') + ' of ' + D.total_scans +
+      (off ? ' (step off the odometry)' : '') +
+      (stretch ? ' (in a weak stretch)' : '') + ' of ' + D.total_scans +
       ' · snapshot ' + (snaps.length ? state.index + 1 : 0) + '/' + snaps.length;
     var rows = [
       ['segments at this time', snap ? snap.segments.length / 4 : '–'],
@@ -301,6 +310,10 @@
     var offCount = D.off_odometry || (D.off_odometry_scans || []).length;
     if (offCount) {
       rows.push(['scans whose step the odometry contradicts (purple marks)', offCount]);
+    }
+    var stretches = (D.weak_stretches || []).length;
+    if (stretches) {
+      rows.push(['weak stretches of 10 m or more (yellow bands)', stretches]);
     }
     var mc = D.map_consistency;
     if (mc) {

@@ -205,6 +205,7 @@ impl ReportRecorder {
             off_odometry_scans: self.off_odometry_scans,
             off_odometry: self.off_odometry,
             map_consistency: None,
+            weak_stretches: Vec::new(),
         }
     }
 }

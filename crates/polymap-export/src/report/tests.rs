@@ -172,7 +172,10 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
         };
         recorder.record(stat, Pose2::IDENTITY, SnapshotContent::default);
     }
-    let data = recorder.finish(SnapshotContent::default());
+    let mut data = recorder.finish(SnapshotContent::default());
+    // The caller adds the mapper's weak stretches; the recorder has none of its own.
+    assert!(data.weak_stretches.is_empty());
+    data.weak_stretches = vec![[0, 1]];
     assert_eq!(data.lost_ranges, vec![[2, 4], [7, 7]]);
     assert_eq!((data.gap_scans.clone(), data.gaps), (vec![5], 1));
     assert_eq!(
@@ -185,6 +188,7 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
     assert!(html.contains("\"lost_ranges\":[[2,4],[7,7]]"));
     assert!(html.contains("\"gap_scans\":[5]"));
     assert!(html.contains("\"off_odometry_scans\":[6,8]"));
+    assert!(html.contains("\"weak_stretches\":[[0,1]]"));
     assert!(html.contains("\"map_consistency\":null"));
     let checked = ReportData {
         map_consistency: Some(crate::report::MapConsistency {
