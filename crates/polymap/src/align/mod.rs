@@ -51,8 +51,9 @@ pub use pair_search::{
 };
 pub use pairs::{Corner, corner_poses, corners};
 pub use point_to_segment::{
-    LOOSE_DISTINCT_M, LOOSE_GATE_M, LOOSE_LINE_BELOW, LOOSE_MIN_NEIGHBOURS, LOOSE_NEIGHBOURHOOD_M,
-    PointTargets, align_points, align_points_and_loose, thin_points,
+    EDGE_ON_BELOW, LOOSE_DISTINCT_M, LOOSE_GATE_M, LOOSE_LINE_BELOW, LOOSE_MIN_NEIGHBOURS,
+    LOOSE_NEIGHBOURHOOD_M, PointTargets, align_points, align_points_and_loose,
+    align_points_past_ends, thin_points,
 };
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};

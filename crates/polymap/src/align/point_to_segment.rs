@@ -194,6 +194,39 @@ pub fn align_points_and_loose(
     anchor: Pose2,
     params: &AlignParams,
 ) -> AlignResult {
+    align_points_matched(points_in_robot, map, targets, guess, anchor, params, false)
+}
+
+/// A beam whose direction has a component under this along a segment's normal (it runs
+/// within about 15° of the segment's line) sees the segment edge on.
+pub const EDGE_ON_BELOW: f64 = 0.26;
+
+/// [`align_points_and_loose`] without the points a beam that runs along a segment
+/// ([`EDGE_ON_BELOW`]) puts within `align.endpoint_slack_m` of its end (or beyond it): a beam
+/// cannot end on a face it runs along; near the face's end it passes it and hits what lies
+/// beyond (often the wall the face meets), and such a point moves with the robot. Where it is
+/// all ICP observes along a direction it pins the robot there (see
+/// `align::strategy`'s unpinning).
+pub fn align_points_past_ends(
+    points_in_robot: &[Vec2],
+    map: &impl SegmentLookup,
+    targets: Option<&PointTargets>,
+    guess: Pose2,
+    anchor: Pose2,
+    params: &AlignParams,
+) -> AlignResult {
+    align_points_matched(points_in_robot, map, targets, guess, anchor, params, true)
+}
+
+fn align_points_matched(
+    points_in_robot: &[Vec2],
+    map: &impl SegmentLookup,
+    targets: Option<&PointTargets>,
+    guess: Pose2,
+    anchor: Pose2,
+    params: &AlignParams,
+    skip_past_ends: bool,
+) -> AlignResult {
     // Per point, what the last search found: while a point moves little between iterations,
     // its nearest segment is known without searching again (same answers, exactly).
     let mut certificates: Vec<Option<NearestCertificate>> = vec![None; points_in_robot.len()];
@@ -222,6 +255,16 @@ pub fn align_points_and_loose(
                 (along >= -params.endpoint_slack_m && along <= len + params.endpoint_slack_m)
                     .then_some((s, dir))
             });
+            let past_end = |(s, dir): &(crate::geometry::Segment, Vec2)| {
+                let slack = params.endpoint_slack_m;
+                let along = (q - s.start).dot(*dir);
+                let beam = pose.rotate(p).normalize_or_zero();
+                beam.dot(dir.perp()).abs() < EDGE_ON_BELOW
+                    && !(slack..=s.length() - slack).contains(&along)
+            };
+            if skip_past_ends && on_segment.as_ref().is_some_and(past_end) {
+                continue;
+            }
             let Some((s, dir)) = on_segment else {
                 if let Some(t) = targets {
                     t.constrain(p, q, gate_m.min(LOOSE_GATE_M), out);
@@ -240,6 +283,53 @@ pub fn align_points_and_loose(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Segment;
+    use crate::segment_index::SegmentIndex;
+
+    /// A corridor whose only mark along it is a box's face against its north wall (x = 0,
+    /// reaching a little past the wall, as a merged face does), a robot beside that face, and
+    /// its side beam's point at `side_y`.
+    fn corridor_with_a_face(side_y: f64) -> (SegmentIndex<usize>, Vec<Vec2>) {
+        let map = SegmentIndex::from_segments(
+            &[
+                Segment::new(Vec2::new(-20.0, 1.2), Vec2::new(20.0, 1.2)),
+                Segment::new(Vec2::new(-20.0, -1.2), Vec2::new(20.0, -1.2)),
+                Segment::new(Vec2::new(0.0, 0.7), Vec2::new(0.0, 1.25)),
+            ],
+            0.5,
+            1.0,
+        );
+        let mut points: Vec<Vec2> = (1..=30)
+            .flat_map(|i| {
+                let x = 0.25 * f64::from(i);
+                [Vec2::new(x, 1.2), Vec2::new(x, -1.2)]
+            })
+            .collect();
+        points.push(Vec2::new(0.0, side_y));
+        (map, points)
+    }
+
+    /// The side beam runs along the face and ends by its end, on the wall: matched to the
+    /// face it is ICP's only evidence along the corridor (about one point's information) and
+    /// holds the robot there; without such points the direction is unobservable. A point the
+    /// beam puts well inside the face stays.
+    #[test]
+    fn a_beam_along_a_face_ending_by_its_end_is_left_out_past_ends() {
+        let params = AlignParams::default();
+        let at = Pose2::new(0.0, 0.0, 0.0);
+        let (map, points) = corridor_with_a_face(1.21);
+        let pinned = align_points_and_loose(&points, &map, None, at, at, &params);
+        assert_eq!(pinned.weak_directions, 0, "{pinned:?}");
+        let info = pinned.translation_information.weakest;
+        assert!(info > 0.5 && info < 1.5, "{pinned:?}");
+        let free = align_points_past_ends(&points, &map, None, at, at, &params);
+        assert_eq!(free.weak_directions, 1, "{free:?}");
+        // Well inside the face (0.25 m from its end), the point is evidence either way.
+        let (map, points) = corridor_with_a_face(1.0);
+        let kept = align_points_past_ends(&points, &map, None, at, at, &params);
+        assert_eq!(kept.weak_directions, 0, "{kept:?}");
+        assert!(kept.translation_information.weakest > 0.5, "{kept:?}");
+    }
 
     /// A line of points at any angle is a line whose normal is across it; a compact cluster
     /// is a blob; two points are no shape.

@@ -80,8 +80,8 @@ use super::track::{
 };
 use super::{
     AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup,
-    align_endpoints, align_points_and_loose, corner_seeds, fit_score, fit_score_above, map_bounds,
-    rotation_search, score_sample, thin_points,
+    align_endpoints, align_points_and_loose, align_points_past_ends, corner_seeds, fit_score,
+    fit_score_above, map_bounds, rotation_search, score_sample, thin_points,
 };
 use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
@@ -168,6 +168,10 @@ pub const PRIOR_OVER_WEAK_M: f64 = 0.1;
 /// this share of the longest recent step, counts as stopped (`Tracker::icp`).
 pub const STOPPED_BELOW_SHARE_OF_STEP: f64 = 0.5;
 
+/// ICP's weakest information under this is about one point's (a point-to-line constraint adds
+/// at most 1): see `Tracker::unpinned`.
+pub const PINNED_BELOW_INFORMATION: f64 = 1.5;
+
 /// The recovery searches positions within this distance of the anchor (each axis), metres.
 pub const RECOVER_TRANSLATION_M: f64 = 1.0;
 
@@ -216,6 +220,9 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
         search_won,
         second_fit,
     } = tracker.icp();
+    if let Some(free) = result.as_ref().and_then(|r| tracker.unpinned(r)) {
+        result = Some(free);
+    }
     let first = input.map.is_empty();
     let mut tracking = verdict(result.as_ref(), points.len(), first, config.tracking);
     if config.tracking.corner_hypotheses
@@ -960,6 +967,35 @@ impl Tracker<'_> {
             starts.push(searched);
         }
         starts
+    }
+
+    /// Where ICP observed a direction by about one point only (weakest information under
+    /// [`PINNED_BELOW_INFORMATION`], every direction above the solver's threshold), ICP again
+    /// from its pose without the points that beams running along a segment put by its end
+    /// ([`align_points_past_ends`]); its pose when that leaves the direction unobservable (put
+    /// on the fallback, `TrackInput::unobserved_to`): the one point was such a point, which
+    /// moves with the robot and would hold it still (the simulated ring: a side beam by the end
+    /// of a box's face held a robot for 150 scans while it drove 7.5 m on). Point-to-segment ICP
+    /// only.
+    fn unpinned(&self, result: &AlignResult) -> Option<AlignResult> {
+        let (input, params) = (self.input, self.config.align);
+        let info = result.translation_information.weakest;
+        let pinned = params.method == AlignMethod::PointToSegment
+            && result.weak_directions == 0
+            && info > 0.0
+            && info < PINNED_BELOW_INFORMATION;
+        if !pinned {
+            return None;
+        }
+        let free = align_points_past_ends(
+            self.points,
+            input.map,
+            self.targets,
+            result.map_from_robot,
+            input.unobserved_to,
+            params,
+        );
+        (free.weak_directions > 0 && free.weak_directions < 3).then_some(free)
     }
 
     /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
