@@ -3,7 +3,7 @@
 use super::solver::{Constraint, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::extract::fit_line;
-use crate::geometry::{Pose2, Vec2};
+use crate::geometry::{Pose2, Segment, Vec2};
 use crate::segment_index::NearestCertificate;
 
 /// A scan point is matched to a loose point at most this far, metres (whatever ICP's gate,
@@ -255,7 +255,7 @@ fn align_points_matched(
                 (along >= -params.endpoint_slack_m && along <= len + params.endpoint_slack_m)
                     .then_some((s, dir))
             });
-            let past_end = |(s, dir): &(crate::geometry::Segment, Vec2)| {
+            let past_end = |(s, dir): &(Segment, Vec2)| {
                 let slack = params.endpoint_slack_m;
                 let along = (q - s.start).dot(*dir);
                 let beam = pose.rotate(p).normalize_or_zero();
@@ -283,7 +283,6 @@ fn align_points_matched(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Segment;
     use crate::segment_index::SegmentIndex;
 
     /// A corridor whose only mark along it is a box's face against its north wall (x = 0,
