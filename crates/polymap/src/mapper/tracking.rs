@@ -175,14 +175,27 @@ fn scaled(m: &Pose2, k: f64) -> Pose2 {
     Pose2::new(m.x_m * k, m.y_m * k, m.theta_rad * k)
 }
 
+/// A step whose translation is under this many metres per radian turned is a turn on the
+/// spot (its arc turns about a point within this distance of the robot): its translation,
+/// about none, says nothing of the speed the robot drives on at after the turn, so the
+/// observed speed keeps the translation of the last driving step. Robots turn on the spot at
+/// corridor junctions and then drive on into a corridor that may be bare; taking the turn's
+/// standstill as the speed there held Intel at K = 10 in place at every junction.
+const TURN_ON_THE_SPOT_M_PER_RAD: f64 = 0.3;
+
 /// The last motion observed between two scans (`mapper.keep_observed_velocity`): the step from
 /// a scan tracked `ok` with every direction observed to the next such scan, robot frame of the
 /// first; not from a step whose stamps say it spans a gap or a burst (under half or over twice
 /// the median of the recent time steps), nor from a corner pose (a correction of the earlier
 /// error, not a motion). A motion taken from the prior never updates it, so it cannot run on.
+/// Its turn is the last observed step's; its translation is the last observed step's that was
+/// no turn on the spot ([`TURN_ON_THE_SPOT_M_PER_RAD`]), a stop included.
 #[derive(Debug, Clone, Default)]
 pub(super) struct ObservedSpeed {
+    /// The last observed step, robot frame of the scan it started from.
     motion: Option<Pose2>,
+    /// The last observed step that was no turn on the spot (same frame convention).
+    driving: Option<Pose2>,
     last_observed: bool,
     last_stamp_s: Option<f64>,
     /// The recent positive time steps, seconds: a ring of [`TYPICAL_DT_STEPS`], the first
@@ -197,9 +210,13 @@ pub(super) struct ObservedSpeed {
 }
 
 impl ObservedSpeed {
-    /// The last observed motion, robot frame of the scan it started from.
+    /// The observed motion per scan, robot frame of the scan it starts from: the last observed
+    /// step's turn, with the translation of the last observed step that was no turn on the spot
+    /// (the last step's own when every observed step so far turned on the spot).
     pub(super) fn motion(&self) -> Option<Pose2> {
-        self.motion
+        let turn = self.motion?;
+        let along = self.driving.unwrap_or(turn);
+        Some(Pose2::new(along.x_m, along.y_m, turn.theta_rad))
     }
 
     /// Takes the step to the scan just tracked (`None` for the first), whether that scan was
@@ -217,6 +234,11 @@ impl ObservedSpeed {
         };
         if let Some(step) = step.filter(|_| observed && self.last_observed && usual) {
             self.motion = Some(step);
+            let on_the_spot =
+                step.translation().length() < TURN_ON_THE_SPOT_M_PER_RAD * step.theta_rad.abs();
+            if !on_the_spot {
+                self.driving = Some(step);
+            }
         }
         if let Some(dt) = dt {
             self.dts[self.next] = dt;
@@ -343,6 +365,31 @@ mod tests {
         unstamped.record(None, true, None);
         unstamped.record(Some(faster), true, None);
         assert_eq!(unstamped.motion(), Some(faster));
+    }
+
+    #[test]
+    fn a_turn_on_the_spot_keeps_the_speed_driven_before_it() {
+        let drive = Pose2::new(0.5, 0.01, 0.05);
+        let turn = Pose2::new(0.04, 0.02, 0.9);
+        let mut speed = ObservedSpeed::default();
+        speed.record(None, true, None);
+        speed.record(Some(drive), true, None);
+        // A turn of 0.9 rad moving 4.5 cm (an arc about a point 5 cm away) is on the spot: the
+        // motion turns as it did, and drives on at the speed before it.
+        speed.record(Some(turn), true, None);
+        assert_eq!(speed.motion(), Some(Pose2::new(0.5, 0.01, 0.9)));
+        // A curve driven (0.5 m over 0.9 rad: a radius of 0.56 m) is driving, and so is a stop.
+        let curve = Pose2::new(0.45, 0.2, 0.9);
+        speed.record(Some(curve), true, None);
+        assert_eq!(speed.motion(), Some(curve));
+        let stop = Pose2::new(0.001, 0.0, 0.0);
+        speed.record(Some(stop), true, None);
+        assert_eq!(speed.motion(), Some(stop));
+        // Before any driving step the turn's own translation is all there is.
+        let mut spinning = ObservedSpeed::default();
+        spinning.record(None, true, None);
+        spinning.record(Some(turn), true, None);
+        assert_eq!(spinning.motion(), Some(turn));
     }
 
     #[test]
