@@ -66,7 +66,9 @@
 //!    last `ok` pose in the time the stamps give ([`Tracker::within_reach`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
-//!    [`Tracking::enters_map`]), or when ICP from the search's pose and from the starts
+//!    [`Tracking::enters_map`]; ICP from the rival replaces the pose where it fits more points
+//!    by `tracking.search_win_margin`, plus two, within reach: [`Tracker::rival_fits_better`]),
+//!    or when ICP from the search's pose and from the starts
 //!    reached distinct poses that both observe every direction and fit alike (within
 //!    `tracking.ambiguous_above` of the inliers); `weak` (`slowed`) for a fast robot put near
 //!    no motion on weak evidence ([`Tracker::slowed`]); `weak` (`off_odometry`) where the
@@ -79,7 +81,7 @@ use super::track::{
     Verdict, WindowMatch, search_window, should_search, verdict, window_search,
 };
 use super::{
-    AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup,
+    AlignMethod, AlignParams, AlignResult, Candidate, PointTargets, SearchWindow, SegmentLookup,
     align_endpoints, align_points_and_loose, align_points_past_ends, corner_seeds, fit_score,
     fit_score_above, map_bounds, rotation_search, score_sample, thin_points,
 };
@@ -238,7 +240,22 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     // A rival on the raster, or (unless a corner pose replaced ICP's) ICP from the search's
     // pose fitting nearly as well elsewhere.
     let second_fit = second_fit && !tracking.corner_won;
-    if tracking.verdict == Verdict::Ok && (second_fit || found.is_some_and(|m| m.ambiguous())) {
+    let rival = match tracking.verdict == Verdict::Ok && !second_fit {
+        true => found.as_ref().and_then(|m| m.rival()),
+        false => None,
+    };
+    if tracking.verdict == Verdict::Ok && (second_fit || rival.is_some()) {
+        // ICP from the rival may fit clearly more points than the pose taken: a turn the
+        // raster scored just below its mirror image (a corridor seen turned by 180°).
+        if let Some(better) = rival
+            .zip(result.as_ref())
+            .and_then(|(rival, current)| tracker.rival_fits_better(&rival, current))
+        {
+            tracking = verdict(Some(&better), points.len(), first, config.tracking);
+            tracking.searched = true;
+            tracking.search_won = true;
+            result = Some(better);
+        }
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::Ambiguous;
     }
@@ -792,6 +809,17 @@ impl Tracker<'_> {
         let (reach_m, reach_deg) = tracking.reach(dt);
         d.translation().length() <= reach_m
             && normalize_angle_rad(d.theta_rad).abs().to_degrees() <= reach_deg
+    }
+
+    /// ICP from the window search's `rival` pose, when it fits more points than `current` by
+    /// the margin a search's pose wins by (`tracking.search_win_margin`, plus two) and lies
+    /// within reach ([`Tracker::within_reach`]).
+    fn rival_fits_better(&self, rival: &Candidate, current: &AlignResult) -> Option<AlignResult> {
+        let fit = self.run_near(rival.map_from_robot);
+        let margin = self.config.tracking.search_win_margin;
+        (fit.inliers as f64 > current.inliers as f64 * (1.0 + margin) + 2.0
+            && self.within_reach(&fit.map_from_robot))
+        .then_some(fit)
     }
 
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
@@ -1388,6 +1416,42 @@ mod tests {
             let near = e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01;
             (near, e, verdict)
         })
+    }
+
+    /// A scan in a rectangular room taken as its mirror image (turned 180° about the room's
+    /// centre, where the walls fit and the box and the corner's slant do not): ICP from the
+    /// window search's rival at the truth fits clearly more points and replaces it; the other
+    /// way round, the mirror as the rival does not replace the truth.
+    #[test]
+    fn a_rival_that_fits_clearly_more_points_replaces_the_mirror_image() {
+        let map = map_of(&room(), 0.5);
+        let truth = Pose2::new(-0.5, -0.8, 0.2);
+        let mirror = Pose2::new(0.5, 0.8, 0.2 + std::f64::consts::PI);
+        let scene = (&room()[..], &map, truth, truth, 0);
+        with_tracker(
+            AlignMethod::PointToSegment,
+            scene,
+            &TrackParams::default(),
+            |t| {
+                let candidate = |p: Pose2| Candidate {
+                    map_from_robot: p,
+                    score: 0.5,
+                };
+                let at_mirror = t.run_near(mirror);
+                let near_truth = truth.compose(&Pose2::new(0.08, -0.05, 0.03));
+                let taken = t
+                    .rival_fits_better(&candidate(near_truth), &at_mirror)
+                    .expect("the truth fits clearly more points");
+                assert!(taken.inliers > at_mirror.inliers, "{taken:?} {at_mirror:?}");
+                let e = truth.between(&taken.map_from_robot);
+                assert!(
+                    e.translation().length() < 0.02 && e.theta_rad.abs() < 0.01,
+                    "{e:?}"
+                );
+                let at_truth = t.run_near(truth);
+                assert_eq!(t.rival_fits_better(&candidate(mirror), &at_truth), None);
+            },
+        );
     }
 
     /// A robot that stood for a scan (the prediction: no motion) and then moved on as it did
