@@ -240,20 +240,24 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     // A rival on the raster, or (unless a corner pose replaced ICP's) ICP from the search's
     // pose fitting nearly as well elsewhere.
     let second_fit = second_fit && !tracking.corner_won;
-    let rival = match tracking.verdict == Verdict::Ok && !second_fit {
-        true => found.as_ref().and_then(|m| m.rival()),
-        false => None,
-    };
-    if tracking.verdict == Verdict::Ok && (second_fit || rival.is_some()) {
+    let ok = tracking.verdict == Verdict::Ok;
+    let rival = (ok && !second_fit)
+        .then(|| found.as_ref().and_then(|m| m.rival()))
+        .flatten();
+    if ok && (second_fit || rival.is_some()) {
         // ICP from the rival may fit clearly more points than the pose taken: a turn the
-        // raster scored just below its mirror image (a corridor seen turned by 180°).
-        if let Some(better) = rival
+        // raster scored just below its mirror image (a corridor seen turned by 180°). Not
+        // over a corner pose, which stays out of the map while a rival doubts it.
+        if let Some((better, judged)) = rival
             .zip(result.as_ref())
+            .filter(|_| !tracking.corner_won)
             .and_then(|(rival, current)| tracker.rival_fits_better(&rival, current))
         {
-            tracking = verdict(Some(&better), points.len(), first, config.tracking);
-            tracking.searched = true;
-            tracking.search_won = true;
+            tracking = Tracking {
+                searched: true,
+                search_won: true,
+                ..judged
+            };
             result = Some(better);
         }
         tracking.verdict = Verdict::Weak;
@@ -709,16 +713,16 @@ impl Tracker<'_> {
         let searched = self.run_near(found.best.map_from_robot);
         // The search's pose must fit clearly better: along a corridor, or with odometry's good
         // guess, a pose that fits a few more points by coincidence is no evidence.
-        let margin = tracking.search_win_margin;
         // Where ICP had no evidence along an axis, evidence wins over none: ICP from the
         // search's pose must observe every direction, agree with ICP's pose in the directions
         // ICP did observe (across the axis, and the rotation), and fit as many points.
         let evidence = unobserved.is_some_and(|axis| self.evidence_along(&searched, &result, axis));
         // Nor may it lie beyond the robot's reach since the last `ok` scan: after a lost scan
         // the window is the whole circle.
-        let search_won = (searched.inliers as f64 > result.inliers as f64 * (1.0 + margin) + 2.0
-            || evidence)
-            && self.within_reach(&searched.map_from_robot);
+        let search_won = match evidence {
+            true => self.within_reach(&searched.map_from_robot),
+            false => self.search_pose_wins(&searched, &result),
+        };
         let (kept, other) = match search_won {
             true => (searched, result),
             false => (result, searched),
@@ -811,15 +815,33 @@ impl Tracker<'_> {
             && normalize_angle_rad(d.theta_rad).abs().to_degrees() <= reach_deg
     }
 
-    /// ICP from the window search's `rival` pose, when it fits more points than `current` by
-    /// the margin a search's pose wins by (`tracking.search_win_margin`, plus two) and lies
-    /// within reach ([`Tracker::within_reach`]).
-    fn rival_fits_better(&self, rival: &Candidate, current: &AlignResult) -> Option<AlignResult> {
+    /// ICP from the window search's `rival` pose, with its verdict, when that fit observes
+    /// every direction, is not `lost`, and beats `current` as a search's pose must
+    /// ([`Tracker::search_pose_wins`]).
+    fn rival_fits_better(
+        &self,
+        rival: &Candidate,
+        current: &AlignResult,
+    ) -> Option<(AlignResult, Tracking)> {
         let fit = self.run_near(rival.map_from_robot);
+        let judged = verdict(
+            Some(&fit),
+            self.points.len(),
+            self.input.map.is_empty(),
+            self.config.tracking,
+        );
+        // Every direction observed (by few points, maybe: FR079's true pose of the case above
+        // was `weakly_observed`, the mirror image `ok`), and no verdict of `lost`.
+        let sound = fit.weak_directions == 0 && judged.verdict != Verdict::Lost;
+        (sound && self.search_pose_wins(&fit, current)).then_some((fit, judged))
+    }
+
+    /// Whether `other`, ICP from a search's pose, beats `current`: more inliers by
+    /// `tracking.search_win_margin` (plus two), within reach ([`Tracker::within_reach`]).
+    fn search_pose_wins(&self, other: &AlignResult, current: &AlignResult) -> bool {
         let margin = self.config.tracking.search_win_margin;
-        (fit.inliers as f64 > current.inliers as f64 * (1.0 + margin) + 2.0
-            && self.within_reach(&fit.map_from_robot))
-        .then_some(fit)
+        other.inliers as f64 > current.inliers as f64 * (1.0 + margin) + 2.0
+            && self.within_reach(&other.map_from_robot)
     }
 
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
@@ -1439,9 +1461,11 @@ mod tests {
                 };
                 let at_mirror = t.run_near(mirror);
                 let near_truth = truth.compose(&Pose2::new(0.08, -0.05, 0.03));
-                let taken = t
+                let (taken, judged) = t
                     .rival_fits_better(&candidate(near_truth), &at_mirror)
                     .expect("the truth fits clearly more points");
+                assert_ne!(judged.verdict, Verdict::Lost, "{judged:?}");
+                assert_eq!(taken.weak_directions, 0, "{taken:?}");
                 assert!(taken.inliers > at_mirror.inliers, "{taken:?} {at_mirror:?}");
                 let e = truth.between(&taken.map_from_robot);
                 assert!(

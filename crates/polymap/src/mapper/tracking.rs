@@ -175,16 +175,23 @@ fn scaled(m: &Pose2, k: f64) -> Pose2 {
     Pose2::new(m.x_m * k, m.y_m * k, m.theta_rad * k)
 }
 
-/// A step whose translation is under this many metres per radian turned is a turn on the
-/// spot (its arc turns about a point within this distance of the robot): its translation,
+/// A step that turns at least [`TURN_ON_THE_SPOT_AT_LEAST_RAD`] and moves under this many
+/// metres per radian turned is a turn on the spot (its arc turns about a point within this
+/// distance of the robot): its translation,
 /// about none, says nothing of the speed the robot drives on at after the turn, so the
 /// observed speed keeps the translation of the last driving step. Robots turn on the spot at
 /// corridor junctions and then drive on into a corridor that may be bare; taking the turn's
 /// standstill as the speed there held Intel at K = 10 in place at every junction.
 const TURN_ON_THE_SPOT_M_PER_RAD: f64 = 0.3;
 
-/// A driving step after one under this share of its length is the first out of a stop
-/// ([`ObservedSpeed`]): a step of acceleration, which does not set the cruise speed.
+/// A turn on the spot turns at least this much, radians (about 6°): a standing robot's
+/// millimetres of jitter with a fraction of a degree of turn are a stop, which sets the speed
+/// to none.
+const TURN_ON_THE_SPOT_AT_LEAST_RAD: f64 = 0.1;
+
+/// A driving step of at least [`CRUISE_AT_LEAST_M`] after one under this share of its length
+/// is the first out of a stop (or a crawl; [`ObservedSpeed`]): a step of acceleration, which
+/// does not set the cruise speed.
 const STOP_BELOW_SHARE: f64 = 0.25;
 
 /// A driving step under this many metres is no evidence of a cruise speed (the jitter of a
@@ -232,7 +239,9 @@ pub(super) struct ObservedSpeed {
 impl ObservedSpeed {
     /// The observed motion per scan, robot frame of the scan it starts from: the last observed
     /// step's turn, with the translation of the last observed step that was no turn on the spot
-    /// (the last step's own when every observed step so far turned on the spot).
+    /// (the last step's own when every observed step so far turned on the spot); when that
+    /// step was the first out of a stop and slower than the cruise speed, its direction at the
+    /// cruise speed (metres per scan).
     pub(super) fn motion(&self) -> Option<Pose2> {
         let turn = self.motion?;
         let along = self.driving.unwrap_or(turn);
@@ -259,8 +268,9 @@ impl ObservedSpeed {
         };
         if let Some(step) = step.filter(|_| observed && self.last_observed && usual) {
             self.motion = Some(step);
-            let on_the_spot =
-                step.translation().length() < TURN_ON_THE_SPOT_M_PER_RAD * step.theta_rad.abs();
+            let turn_rad = step.theta_rad.abs();
+            let on_the_spot = turn_rad >= TURN_ON_THE_SPOT_AT_LEAST_RAD
+                && step.translation().length() < TURN_ON_THE_SPOT_M_PER_RAD * turn_rad;
             if !on_the_spot {
                 self.drive(step);
             }
@@ -283,7 +293,7 @@ impl ObservedSpeed {
     /// stop, and the cruise speed.
     fn drive(&mut self, step: Pose2) {
         let len = step.translation().length();
-        self.out_of_stop = self.last_drive_m < STOP_BELOW_SHARE * len;
+        self.out_of_stop = len >= CRUISE_AT_LEAST_M && self.last_drive_m < STOP_BELOW_SHARE * len;
         if !self.out_of_stop && len >= CRUISE_AT_LEAST_M {
             self.cruise_m = Some(len);
         }
@@ -461,6 +471,23 @@ mod tests {
         let fast = Pose2::new(0.5, 0.0, 0.0);
         speed.record(Some(fast), true, None);
         assert_eq!(speed.motion(), Some(fast));
+        // A standing robot's jitter, of any size and with a fraction of a degree of turn, is a
+        // stop: no turn on the spot, no step out of a stop.
+        let mut jitter = ObservedSpeed::default();
+        jitter.record(None, true, None);
+        for _ in 0..2 {
+            jitter.record(Some(Pose2::new(0.6, 0.0, 0.0)), true, None);
+        }
+        for (x, y, t) in [
+            (0.001, 0.0, 0.0),
+            (0.0, -0.005, 0.004),
+            (0.0, 0.0, 0.0),
+            (0.002, 0.0, 0.009),
+        ] {
+            let step = Pose2::new(x, y, t);
+            jitter.record(Some(step), true, None);
+            assert_eq!(jitter.motion(), Some(step));
+        }
         // Jitter sets no cruise speed: out of a stop with no cruise before, the step stands.
         let mut standing = ObservedSpeed::default();
         standing.record(None, true, None);
