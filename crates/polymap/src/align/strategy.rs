@@ -66,8 +66,9 @@
 //!    last `ok` pose in the time the stamps give ([`Tracker::within_reach`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
-//!    [`Tracking::enters_map`]; ICP from the rival replaces the pose where it fits more points
-//!    by `tracking.search_win_margin`, plus two, within reach: [`Tracker::rival_fits_better`]),
+//!    [`Tracking::enters_map`]; ICP from the rival replaces a pose that no corner pose
+//!    placed where it fits more points by `tracking.search_win_margin`, plus two, within
+//!    reach, observing every direction and not `lost`: [`Tracker::rival_fits_better`]),
 //!    or when ICP from the search's pose and from the starts
 //!    reached distinct poses that both observe every direction and fit alike (within
 //!    `tracking.ambiguous_above` of the inliers); `weak` (`slowed`) for a fast robot put near

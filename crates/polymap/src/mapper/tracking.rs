@@ -177,9 +177,9 @@ fn scaled(m: &Pose2, k: f64) -> Pose2 {
 
 /// A step that turns at least [`TURN_ON_THE_SPOT_AT_LEAST_RAD`] and moves under this many
 /// metres per radian turned is a turn on the spot (its arc turns about a point within this
-/// distance of the robot): its translation,
-/// about none, says nothing of the speed the robot drives on at after the turn, so the
-/// observed speed keeps the translation of the last driving step. Robots turn on the spot at
+/// distance of the robot): its translation, about none, says nothing of the speed the robot
+/// drives on at after the turn, so the observed speed keeps the translation of the last
+/// driving step. Robots turn on the spot at
 /// corridor junctions and then drive on into a corridor that may be bare; taking the turn's
 /// standstill as the speed there held Intel at K = 10 in place at every junction.
 const TURN_ON_THE_SPOT_M_PER_RAD: f64 = 0.3;
@@ -205,9 +205,9 @@ const CRUISE_AT_LEAST_M: f64 = 0.05;
 /// error, not a motion). A motion taken from the prior never updates it, so it cannot run on.
 /// Its turn is the last observed step's; its translation is the last observed step's that was
 /// no turn on the spot ([`TURN_ON_THE_SPOT_M_PER_RAD`]), a stop included, except right after
-/// a stop: the first step out of a stop ([`STOP_BELOW_SHARE`]) is one of
-/// acceleration, and its direction is taken at the cruise speed the robot drove at before the
-/// stop (where that is faster). A robot that stood, drove off and entered a bare corridor was
+/// a stop: the first step of at least [`CRUISE_AT_LEAST_M`] out of a stop
+/// ([`STOP_BELOW_SHARE`]) is one of acceleration, and its direction is taken at the cruise
+/// speed the robot drove at before the stop (where that is faster). A robot that stood, drove off and entered a bare corridor was
 /// otherwise driven through it at the speed of its first metre's fraction (ACES every 5th
 /// scan: 0.19 m per scan where it went 0.5–0.7).
 #[derive(Debug, Clone, Default)]
@@ -219,8 +219,6 @@ pub(super) struct ObservedSpeed {
     /// The cruise speed, metres per scan: the length of the last observed driving step of at
     /// least [`CRUISE_AT_LEAST_M`] that was not the first out of a stop.
     cruise_m: Option<f64>,
-    /// The length of the last observed driving step, metres (0 before any).
-    last_drive_m: f64,
     /// Whether the last observed driving step was the first out of a stop.
     out_of_stop: bool,
     last_observed: bool,
@@ -293,11 +291,15 @@ impl ObservedSpeed {
     /// stop, and the cruise speed.
     fn drive(&mut self, step: Pose2) {
         let len = step.translation().length();
-        self.out_of_stop = len >= CRUISE_AT_LEAST_M && self.last_drive_m < STOP_BELOW_SHARE * len;
-        if !self.out_of_stop && len >= CRUISE_AT_LEAST_M {
-            self.cruise_m = Some(len);
+        let last_m = self.driving.map_or(0.0, |d| d.translation().length());
+        if len >= CRUISE_AT_LEAST_M {
+            self.out_of_stop = last_m < STOP_BELOW_SHARE * len;
+            if !self.out_of_stop {
+                self.cruise_m = Some(len);
+            }
+        } else {
+            self.out_of_stop = false;
         }
-        self.last_drive_m = len;
         self.driving = Some(step);
     }
 
