@@ -238,6 +238,30 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     }
     tracking.searched = found.is_some();
     tracking.search_won = search_won;
+    // A pose still in doubt after the corners (see `doubtful`): ICP from the search's rival
+    // may fit clearly more points, as for an `ok` scan below (Intel every 5th scan, a
+    // nuisance variant, phase 4, scan 2502: a robot spinning 25° per scan, the pose taken
+    // turned 0.2° at 44 % of the points, ICP from the rival 32° at 60 %). The raster preferred
+    // the other pose, so the scan is at best `ambiguous`.
+    if !tracking.corner_won
+        && doubtful(&tracking, config)
+        && let Some((better, judged)) = found
+            .as_ref()
+            .and_then(|m| m.rival())
+            .zip(result.as_ref())
+            .and_then(|(rival, current)| tracker.rival_fits_better(&rival, current))
+    {
+        tracking = Tracking {
+            searched: true,
+            search_won: true,
+            ..judged
+        };
+        if tracking.verdict == Verdict::Ok {
+            tracking.verdict = Verdict::Weak;
+            tracking.reason = Reason::Ambiguous;
+        }
+        result = Some(better);
+    }
     // A rival on the raster, or (unless a corner pose replaced ICP's) ICP from the search's
     // pose fitting nearly as well elsewhere.
     let second_fit = second_fit && !tracking.corner_won;
@@ -834,7 +858,12 @@ impl Tracker<'_> {
         // Every direction observed (by few points, maybe: FR079's true pose of the case above
         // was `weakly_observed`, the mirror image `ok`), and no verdict of `lost`.
         let sound = fit.weak_directions == 0 && judged.verdict != Verdict::Lost;
-        (sound && self.search_pose_wins(&fit, current)).then_some((fit, judged))
+        // With odometry, no further from its guess than a corner pose may turn: in a corridor
+        // the scan turned half round fits nearly as well (Intel every 5th scan on faulty
+        // odometry, phase 2, scan 2099: a lost pose on the right heading, 35 inliers, taken
+        // over by the rival turned 180°, 46; 0.06 → 1.54 m).
+        let turn = self.within_turn_bound(&fit.map_from_robot);
+        (sound && turn && self.search_pose_wins(&fit, current)).then_some((fit, judged))
     }
 
     /// Whether `other`, ICP from a search's pose, beats `current`: more inliers by
@@ -853,7 +882,6 @@ impl Tracker<'_> {
     fn icp_from_corners(&self, current: &AlignResult) -> Option<AlignResult> {
         let input = self.input;
         let tracking = self.config.tracking;
-        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
         let seeds = corner_seeds(
             input.map,
             &input.loose.all(),
@@ -868,20 +896,9 @@ impl Tracker<'_> {
             .map(|c| self.run_near(c.map_from_robot))
             .collect();
         // Only a pose within the turn bound may win; any pose may veto it as a rival.
-        // The turn from the odometry's guess, or from the scans' own motion where odometry
-        // disagrees with it (a stalled wheel reads a turn the robot did not make).
-        let max_turn = corner_turn_rad(odometry, tracking);
-        let cv = self.odometry_disagrees();
-        let turned = |r: &AlignResult| {
-            let from =
-                |p: &Pose2| normalize_angle_rad(r.map_from_robot.theta_rad - p.theta_rad).abs();
-            cv.map_or(from(&input.guess), |cv| from(&input.guess).min(from(&cv)))
-        };
-        let best = best_of(
-            all.iter()
-                .copied()
-                .filter(|r| turned(r) <= max_turn && self.within_reach(&r.map_from_robot)),
-        )?;
+        let best = best_of(all.iter().copied().filter(|r| {
+            self.within_turn_bound(&r.map_from_robot) && self.within_reach(&r.map_from_robot)
+        }))?;
         // A pose away from the prediction needs more evidence than one near it: half again
         // the inliers, a fit that would need no search, and no distinct pose nearly as good
         // (a building of alike rooms fits a scan turned by a right angle almost as well).
@@ -890,6 +907,21 @@ impl Tracker<'_> {
                 && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
         });
         (self.wins_by_ratio(&best, current) && !rival).then_some(best)
+    }
+
+    /// Whether `pose` turns at most [`corner_turn_rad`] from the guess (any turn without
+    /// odometry), or from the scans' own motion where odometry disagrees with it (a stalled
+    /// wheel reads a turn the robot did not make): a pose far from the guess (a corner pose,
+    /// ICP from the search's rival) may win only within it.
+    fn within_turn_bound(&self, pose: &Pose2) -> bool {
+        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
+        let max_turn = corner_turn_rad(odometry, self.config.tracking);
+        let from = |p: &Pose2| normalize_angle_rad(pose.theta_rad - p.theta_rad).abs();
+        let turned = match self.odometry_disagrees() {
+            Some(cv) => from(&self.input.guess).min(from(&cv)),
+            None => from(&self.input.guess),
+        };
+        turned <= max_turn
     }
 
     /// One ICP run from a pose far from the guess: [`Tracker::run`] with the map segments near
@@ -1213,8 +1245,19 @@ mod tests {
     /// the truth, the guess, also the anchor, and the scans lost before).
     fn with_tracker<R>(
         method: AlignMethod,
+        scene: (&[Segment], &GlobalMap, Pose2, Pose2, u32),
+        tracking: &TrackParams,
+        f: impl FnOnce(&Tracker) -> R,
+    ) -> R {
+        with_tracker_starts(method, scene, tracking, &MapperParams::default(), f)
+    }
+
+    /// [`with_tracker`] with the given starts (the motion prior).
+    fn with_tracker_starts<R>(
+        method: AlignMethod,
         (world, map, truth, guess, lost_streak): (&[Segment], &GlobalMap, Pose2, Pose2, u32),
         tracking: &TrackParams,
+        starts: &MapperParams,
         f: impl FnOnce(&Tracker) -> R,
     ) -> R {
         let points = cast(world, &truth);
@@ -1249,7 +1292,7 @@ mod tests {
         let config = TrackConfig {
             align: &align,
             tracking,
-            starts: &MapperParams::default(),
+            starts,
         };
         let thinned = thin_points(&points, align.point_spacing_m);
         f(&Tracker {
@@ -1477,6 +1520,45 @@ mod tests {
                 assert_eq!(t.rival_fits_better(&candidate(mirror), &at_truth), None);
             },
         );
+    }
+
+    /// With the odometry prior, ICP from a rival turned half round from the odometry's guess
+    /// does not replace the pose however much better it fits (beyond `corner_turn_rad`):
+    /// the odometry says the heading (the mirror's here) to tens of degrees, and in a corridor
+    /// the half-turned scan fits nearly as well. Without odometry the same rival replaces it.
+    #[test]
+    fn with_odometry_a_rival_turned_half_round_from_its_guess_does_not_replace_the_pose() {
+        let map = map_of(&room(), 0.5);
+        let truth = Pose2::new(-0.5, -0.8, 0.2);
+        let mirror = Pose2::new(0.5, 0.8, 0.2 + std::f64::consts::PI);
+        let scene = (&room()[..], &map, truth, mirror, 0);
+        let odometry = MapperParams {
+            motion_prior: MotionPrior::Odometry,
+            ..MapperParams::default()
+        };
+        for (starts, replaced) in [(MapperParams::default(), true), (odometry, false)] {
+            let tracking = TrackParams::default();
+            with_tracker_starts(
+                AlignMethod::PointToSegment,
+                scene,
+                &tracking,
+                &starts,
+                |t| {
+                    let at_mirror = t.run_near(mirror);
+                    let rival = Candidate {
+                        map_from_robot: truth.compose(&Pose2::new(0.08, -0.05, 0.03)),
+                        score: 0.5,
+                    };
+                    let taken = t.rival_fits_better(&rival, &at_mirror);
+                    assert_eq!(
+                        taken.is_some(),
+                        replaced,
+                        "{:?}: {taken:?}",
+                        starts.motion_prior
+                    );
+                },
+            );
+        }
     }
 
     /// A robot that stood for a scan (the prediction: no motion) and then moved on as it did
