@@ -48,8 +48,9 @@
 //!    ([`Tracker::prior_over_weak`]). When that did not win (or was not tried, the pose lying
 //!    near the fallback), the weak axis is the fit's only doubt (its verdict would be
 //!    `weakly_observed`), the pose lies within [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest
-//!    recent step from the anchor, and that step is at least `tracking.search_above_step_m`
-//!    (a fast robot that ICP, on weak evidence, says stopped or slowed down), ICP from poses
+//!    recent step from the anchor (ahead, in the sense of the speed last observed), and that
+//!    step is at least `tracking.search_above_step_m` (a fast robot that ICP, on weak
+//!    evidence, says stopped, slowed down or backing), ICP from poses
 //!    along the axis may win by the test above, under the same conditions
 //!    ([`Tracker::stopped_on_weak_evidence`], [`Tracker::checks_along_axes`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
@@ -784,10 +785,12 @@ impl Tracker<'_> {
 
     /// The map-frame axis (unit vector) along which ICP observed `result` only weakly (its
     /// verdict would be `weakly_observed`: otherwise a good fit) and put it less than
-    /// [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor, while the
-    /// robot moved at least `tracking.search_above_step_m` per scan lately: a fast robot that
-    /// ICP, on weak evidence, says stopped or slowed down (also where the fallback was not
-    /// tried because the pose lies near it); only where [`Tracker::checks_along_axes`].
+    /// [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor (ahead, in
+    /// the sense of the speed last observed where that is at least `search_above_step_m`
+    /// along the axis: a step back counts as none), while the robot moved at least
+    /// `tracking.search_above_step_m` per scan lately: a fast robot that ICP, on weak
+    /// evidence, says stopped, slowed down or backing (also where the fallback was not tried
+    /// because the pose lies near it); only where [`Tracker::checks_along_axes`].
     fn stopped_on_weak_evidence(&self, result: &AlignResult) -> Option<Vec2> {
         let (input, tracking) = (self.input, self.config.tracking);
         let info = result.translation_information;
@@ -799,8 +802,16 @@ impl Tracker<'_> {
             && verdict(Some(result), self.points.len(), false, tracking).reason
                 == Reason::WeaklyObserved;
         let axis = info.weakest_axis();
-        let moved = result.map_from_robot.translation() - input.anchor.translation();
-        (on && moved.dot(axis).abs() < STOPPED_BELOW_SHARE_OF_STEP * recent).then_some(axis)
+        let from = input.anchor.translation();
+        let moved = (result.map_from_robot.translation() - from).dot(axis);
+        // Ahead along the axis in the sense of the speed last observed, where it says one: a
+        // step back against it is no less a stop.
+        let expected = (input.unobserved_to.translation() - from).dot(axis);
+        let ahead = match expected.abs() >= tracking.search_above_step_m {
+            true => moved * expected.signum(),
+            false => moved.abs(),
+        };
+        (on && ahead < STOPPED_BELOW_SHARE_OF_STEP * recent).then_some(axis)
     }
 
     /// The direction (map frame, degrees) along which `result` fell short of the last observed
@@ -2300,6 +2311,30 @@ mod tests {
             };
             assert!(check(&fast, &poor, &defaults).is_none());
             assert!(check(&fast, &stopped, &odometry).is_none());
+            // A pose put as far back as half the step is a stop too where the speed last
+            // observed says the robot went ahead (FR079 every 3rd scan with a 5.6 m laser:
+            // five steps tracked 0.2-0.4 m back where the robot drove 0.3 m on, 1.09 m);
+            // with no speed observed, back or ahead is alike.
+            let backed = AlignResult {
+                map_from_robot: Pose2::new(-0.45, 0.0, 0.0),
+                ..stopped
+            };
+            let ahead = Pose2::new(0.8, 0.0, 0.0);
+            let checked = |unobserved_to: Pose2, result: &AlignResult| {
+                let input = TrackInput {
+                    recent: &fast,
+                    unobserved_to,
+                    ..*t.input
+                };
+                let tracker = Tracker {
+                    input: &input,
+                    ..*t
+                };
+                tracker.stopped_on_weak_evidence(result).is_some()
+            };
+            assert!(checked(ahead, &backed));
+            assert!(!checked(Pose2::IDENTITY, &backed));
+            assert!(!checked(ahead, &half_way));
         });
     }
 
