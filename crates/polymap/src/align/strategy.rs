@@ -48,7 +48,8 @@
 //!    ([`Tracker::prior_over_weak`]). When that did not win (or was not tried, the pose lying
 //!    near the fallback), the weak axis is the fit's only doubt (its verdict would be
 //!    `weakly_observed`), the pose lies within [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest
-//!    recent step from the anchor (ahead, in the sense of the speed last observed), and that
+//!    recent step from the anchor (ahead, in the sense of the speed last observed where that
+//!    moves at least `tracking.search_above_step_m` along the axis), and that
 //!    step is at least `tracking.search_above_step_m` (a fast robot that ICP, on weak
 //!    evidence, says stopped, slowed down or backing), ICP from poses
 //!    along the axis may win by the test above, under the same conditions
@@ -69,7 +70,10 @@
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]; ICP from the rival replaces a pose that no corner pose
 //!    placed where it fits more points by `tracking.search_win_margin`, plus two, within
-//!    reach, observing every direction and not `lost`: [`Tracker::rival_fits_better`]),
+//!    reach, observing every direction and not `lost`, with odometry turned at most as far
+//!    from its guess as a corner pose: [`Tracker::rival_fits_better`]; the same for a pose
+//!    still `lost` or in doubt after the corners, while tracking and not on the spot, and by
+//!    `corner_win_ratio` over a `lost` one, the scan then at best `ambiguous`),
 //!    or when ICP from the search's pose and from the starts
 //!    reached distinct poses that both observe every direction and fit alike (within
 //!    `tracking.ambiguous_above` of the inliers); `weak` (`slowed`) for a fast robot put near
@@ -223,6 +227,7 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
         found,
         search_won,
         second_fit,
+        on_the_spot,
     } = tracker.icp();
     if let Some(free) = result.as_ref().and_then(|r| tracker.unpinned(r)) {
         result = Some(free);
@@ -239,18 +244,31 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     }
     tracking.searched = found.is_some();
     tracking.search_won = search_won;
+    // The search's rival, searched for at most once per scan (it goes on with the search).
+    let rival_found = std::cell::OnceCell::new();
+    let rival_of_search = || *rival_found.get_or_init(|| found.as_ref().and_then(|m| m.rival()));
     // A pose still in doubt after the corners (see `doubtful`): ICP from the search's rival
     // may fit clearly more points, as for an `ok` scan below (Intel every 5th scan, a
     // nuisance variant, phase 4, scan 2502: a robot spinning 25° per scan, the pose taken
-    // turned 0.2° at 44 % of the points, ICP from the rival 32° at 60 %). The raster preferred
-    // the other pose, so the scan is at best `ambiguous`.
-    if !tracking.corner_won
-        && doubtful(&tracking, config)
-        && let Some((better, judged)) = found
-            .as_ref()
-            .and_then(|m| m.rival())
-            .zip(result.as_ref())
-            .and_then(|(rival, current)| tracker.rival_fits_better(&rival, current))
+    // turned 0.2° at 44 % of the points, ICP from the rival 32° at 60 %). Not while
+    // relocalizing after lost scans, nor for a pose of the search on the spot (its own guards
+    // decide there); over a `lost` pose it must win as a corner pose does, by
+    // `corner_win_ratio`, since it then enters the map where the lost one would not. The
+    // raster preferred the other pose, so the scan is at best `ambiguous`.
+    let doubted = !tracking.corner_won
+        && !on_the_spot
+        && input.lost_streak == 0
+        && doubtful(&tracking, config);
+    let lost = tracking.verdict == Verdict::Lost;
+    if let Some((better, judged)) = doubted
+        .then(rival_of_search)
+        .flatten()
+        .zip(result.as_ref())
+        .and_then(|(rival, current)| {
+            tracker
+                .rival_fits_better(&rival, current)
+                .filter(|(fit, _)| !lost || tracker.wins_by_ratio(fit, current))
+        })
     {
         tracking = Tracking {
             searched: true,
@@ -267,16 +285,15 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     // pose fitting nearly as well elsewhere.
     let second_fit = second_fit && !tracking.corner_won;
     let ok = tracking.verdict == Verdict::Ok;
-    let rival = (ok && !second_fit)
-        .then(|| found.as_ref().and_then(|m| m.rival()))
-        .flatten();
+    let rival = (ok && !second_fit).then(rival_of_search).flatten();
     if ok && (second_fit || rival.is_some()) {
         // ICP from the rival may fit clearly more points than the pose taken: a turn the
         // raster scored just below its mirror image (a corridor seen turned by 180°). Not
-        // over a corner pose, which stays out of the map while a rival doubts it.
+        // over a corner pose, which stays out of the map while a rival doubts it, nor again
+        // where the pose in doubt above already tried it.
         if let Some((better, judged)) = rival
             .zip(result.as_ref())
-            .filter(|_| !tracking.corner_won)
+            .filter(|_| !tracking.corner_won && !doubted)
             .and_then(|(rival, current)| tracker.rival_fits_better(&rival, current))
         {
             tracking = Tracking {
@@ -424,6 +441,10 @@ struct Aligned {
     /// `tracking.rival_apart_m` or `rival_apart_deg`), observed in every direction, and fits
     /// at least `tracking.ambiguous_above` of its inliers.
     second_fit: bool,
+    /// Whether the pose kept came from the search as wide as the robot can turn on the spot
+    /// ([`Tracker::turned_on_the_spot`]), whose outcome `found` then is: its own guards (on
+    /// the spot, `corner_win_ratio`) are the only ones its poses may win by.
+    on_the_spot: bool,
 }
 
 impl Aligned {
@@ -434,6 +455,7 @@ impl Aligned {
             found: None,
             search_won: false,
             second_fit: false,
+            on_the_spot: false,
         }
     }
 }
@@ -710,6 +732,7 @@ impl Tracker<'_> {
             result: Some(turned),
             found: Some(found),
             search_won: true,
+            on_the_spot: true,
         }
     }
 
@@ -759,6 +782,7 @@ impl Tracker<'_> {
             found: Some(found),
             search_won,
             second_fit,
+            on_the_spot: false,
         }
     }
 
@@ -807,7 +831,7 @@ impl Tracker<'_> {
         // Ahead along the axis in the sense of the speed last observed, where it says one: a
         // step back against it is no less a stop.
         let expected = (input.unobserved_to.translation() - from).dot(axis);
-        let ahead = match expected.abs() >= tracking.search_above_step_m {
+        let ahead = match expected != 0.0 && expected.abs() >= tracking.search_above_step_m {
             true => moved * expected.signum(),
             false => moved.abs(),
         };
@@ -830,7 +854,9 @@ impl Tracker<'_> {
         let from = input.anchor.translation();
         let expected = (input.unobserved_to.translation() - from).dot(axis);
         let moved = (result.map_from_robot.translation() - from).dot(axis);
-        let short = expected.abs() >= tracking.search_above_step_m
+        // `expected` ≠ 0: the sign of −0.0 would turn `moved` round where the step may be 0.
+        let short = expected != 0.0
+            && expected.abs() >= tracking.search_above_step_m
             && moved * expected.signum() < STOPPED_BELOW_SHARE_OF_STEP * expected.abs();
         (on && short).then_some(info.weakest_deg)
     }

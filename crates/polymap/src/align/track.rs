@@ -671,8 +671,8 @@ pub fn search_window(
 const MIN_SCORE: f64 = 0.05;
 
 /// The outcome of a window search: the best pose, and on demand a rival apart from it (only
-/// a scan whose verdict is otherwise `ok` needs to know whether its match is ambiguous, so the
-/// search for a rival runs only when asked).
+/// a scan whose verdict is otherwise `ok`, or still in doubt after the corner hypotheses,
+/// asks for it, so the search for a rival runs only when asked).
 #[derive(Debug, Clone)]
 pub struct WindowMatch {
     /// The best pose of the window.
