@@ -2361,6 +2361,16 @@ mod tests {
             assert!(checked(ahead, &backed));
             assert!(!checked(Pose2::IDENTITY, &backed));
             assert!(!checked(ahead, &half_way));
+            // The weak axis pointing the other way round decides alike.
+            let turned_axis = |r: &AlignResult| AlignResult {
+                translation_information: TranslationInformation {
+                    weakest_deg: 180.0,
+                    ..r.translation_information
+                },
+                ..*r
+            };
+            assert!(checked(ahead, &turned_axis(&backed)));
+            assert!(!checked(ahead, &turned_axis(&half_way)));
         });
     }
 
