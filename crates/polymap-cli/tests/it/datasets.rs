@@ -70,8 +70,9 @@ fn a_sparse_aces_run_that_breaks_is_told_by_the_odometry_and_the_dense_one_is_no
 /// At kept scan 2502 the pose taken turned 0.2°, a poor fit (44 % of the points), and the
 /// window search's rival, ICP from which turns 32° and fits 60 %, was not tried because the
 /// scan was no `ok` one. The tracked turn must be within 10° of the log's odometry (27°: over
-/// one step of a spin on the spot the odometry's turn is good to a degree or two). Whole log,
-/// release build: about 2 s.
+/// one step of a spin on the spot the odometry's turn is good to a degree or two). The run as
+/// a whole is still broken by other spins (0.40 m, 0.66 m before; README, "Broken maps that
+/// still pass silently"): this checks the one step. Whole log, release build: about 2 s.
 #[test]
 fn intel_every_fifth_scan_takes_the_rival_over_a_poor_fit_in_a_spin() {
     let Some(dir) = datasets() else {
@@ -164,17 +165,7 @@ fn fr079_every_third_scan_with_a_short_range_laser_does_not_back_on_weak_evidenc
     let run = out.path().join("run");
     let o = map_quietly(&log, &run, &["--every", "3"]);
     assert!(o.status.success(), "{}", text(&o));
-    let relations = dir.join("fr079").join("fr079.relations");
-    let e = polymap(&[
-        "eval",
-        "relations",
-        run.join("trajectory.tum").to_str().unwrap(),
-        relations.to_str().unwrap(),
-        "--json",
-    ]);
-    assert!(e.status.success(), "{}", text(&e));
-    let v: serde_json::Value = serde_json::from_slice(&e.stdout).unwrap();
-    let mean = v["translation_m"]["mean"].as_f64().unwrap();
+    let mean = mean_relation_error(&run, &dir.join("fr079").join("fr079.relations"));
     eprintln!("fr079 every 3rd scan, 5.6 m laser: {mean:.3} m mean relation error");
     assert!(mean < 0.5, "{mean} m");
 }
@@ -190,18 +181,24 @@ fn every_kth(dir: &std::path::Path, log: &str, every: &str, offset: &str) -> (f6
     );
     assert!(o.status.success(), "{}", text(&o));
     let relations = dir.join(log).join(format!("{log}.relations"));
+    let mean = mean_relation_error(out.path(), &relations);
+    eprintln!("{log} every {every}th scan, phase {offset}: {mean:.3} m mean relation error");
+    (mean, String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// The mean translation error, metres, of the run in `run` (its `trajectory.tum`) against
+/// the ground-truth `relations` file (`polymap eval relations`).
+fn mean_relation_error(run: &std::path::Path, relations: &std::path::Path) -> f64 {
     let e = polymap(&[
         "eval",
         "relations",
-        out.path().join("trajectory.tum").to_str().unwrap(),
+        run.join("trajectory.tum").to_str().unwrap(),
         relations.to_str().unwrap(),
         "--json",
     ]);
     assert!(e.status.success(), "{}", text(&e));
     let v: serde_json::Value = serde_json::from_slice(&e.stdout).unwrap();
-    let mean = v["translation_m"]["mean"].as_f64().unwrap();
-    eprintln!("{log} every {every}th scan, phase {offset}: {mean:.3} m mean relation error");
-    (mean, String::from_utf8_lossy(&o.stderr).into_owned())
+    v["translation_m"]["mean"].as_f64().unwrap()
 }
 
 /// Intel every 10th scan, phase 9: the robot turns on the spot at corridor junctions and drives

@@ -826,15 +826,9 @@ impl Tracker<'_> {
             && verdict(Some(result), self.points.len(), false, tracking).reason
                 == Reason::WeaklyObserved;
         let axis = info.weakest_axis();
-        let from = input.anchor.translation();
-        let moved = (result.map_from_robot.translation() - from).dot(axis);
-        // Ahead along the axis in the sense of the speed last observed, where it says one: a
-        // step back against it is no less a stop.
-        let expected = (input.unobserved_to.translation() - from).dot(axis);
-        let ahead = match expected != 0.0 && expected.abs() >= tracking.search_above_step_m {
-            true => moved * expected.signum(),
-            false => moved.abs(),
-        };
+        // Ahead in the sense of the speed last observed, where it says one: a step back
+        // against it is no less a stop.
+        let (ahead, _) = self.moved_along(result, axis);
         (on && ahead < STOPPED_BELOW_SHARE_OF_STEP * recent).then_some(axis)
     }
 
@@ -845,20 +839,33 @@ impl Tracker<'_> {
     /// along it, and `result` moved less than [`STOPPED_BELOW_SHARE_OF_STEP`] of that along
     /// it from the anchor.
     fn slowed(&self, result: &AlignResult) -> Option<f64> {
-        let (input, tracking) = (self.input, self.config.tracking);
+        let tracking = self.config.tracking;
         let info = result.translation_information;
         let on = tracking.slowed_below_information > 0.0
             && self.config.starts.motion_prior != MotionPrior::Odometry
             && info.weakest < tracking.slowed_below_information;
         let axis = info.weakest_axis();
-        let from = input.anchor.translation();
-        let expected = (input.unobserved_to.translation() - from).dot(axis);
-        let moved = (result.map_from_robot.translation() - from).dot(axis);
-        // `expected` ≠ 0: the sign of −0.0 would turn `moved` round where the step may be 0.
-        let short = expected != 0.0
-            && expected.abs() >= tracking.search_above_step_m
-            && moved * expected.signum() < STOPPED_BELOW_SHARE_OF_STEP * expected.abs();
+        let short = match self.moved_along(result, axis) {
+            (ahead, Some(expected)) => ahead < STOPPED_BELOW_SHARE_OF_STEP * expected,
+            (_, None) => false,
+        };
         (on && short).then_some(info.weakest_deg)
+    }
+
+    /// How far `result` lies from the anchor along `axis` (map frame, unit vector), metres:
+    /// signed, ahead positive, in the sense of the speed last observed (the fallback,
+    /// `TrackInput::unobserved_to`) where that moves at least `tracking.search_above_step_m`
+    /// along the axis, with that speed's length along it; otherwise unsigned, and `None`.
+    fn moved_along(&self, result: &AlignResult, axis: Vec2) -> (f64, Option<f64>) {
+        let input = self.input;
+        let from = input.anchor.translation();
+        let moved = (result.map_from_robot.translation() - from).dot(axis);
+        let expected = (input.unobserved_to.translation() - from).dot(axis);
+        // `expected` ≠ 0: the sign of −0.0 would turn `moved` round where the step may be 0.
+        match expected != 0.0 && expected.abs() >= self.config.tracking.search_above_step_m {
+            true => (moved * expected.signum(), Some(expected.abs())),
+            false => (moved.abs(), None),
+        }
     }
 
     /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
@@ -1521,15 +1528,21 @@ mod tests {
         })
     }
 
+    /// The map of [`room`], a true pose in it, and its mirror pose (turned 180° about the
+    /// room's centre), map frame.
+    fn room_and_its_mirror_pose() -> (GlobalMap, Pose2, Pose2) {
+        let truth = Pose2::new(-0.5, -0.8, 0.2);
+        let mirror = Pose2::new(0.5, 0.8, 0.2 + std::f64::consts::PI);
+        (map_of(&room(), 0.5), truth, mirror)
+    }
+
     /// A scan in a rectangular room taken as its mirror image (turned 180° about the room's
     /// centre, where the walls fit and the box and the corner's slant do not): ICP from the
     /// window search's rival at the truth fits clearly more points and replaces it; the other
     /// way round, the mirror as the rival does not replace the truth.
     #[test]
     fn a_rival_that_fits_clearly_more_points_replaces_the_mirror_image() {
-        let map = map_of(&room(), 0.5);
-        let truth = Pose2::new(-0.5, -0.8, 0.2);
-        let mirror = Pose2::new(0.5, 0.8, 0.2 + std::f64::consts::PI);
+        let (map, truth, mirror) = room_and_its_mirror_pose();
         let scene = (&room()[..], &map, truth, truth, 0);
         with_tracker(
             AlignMethod::PointToSegment,
@@ -1565,9 +1578,7 @@ mod tests {
     /// the half-turned scan fits nearly as well. Without odometry the same rival replaces it.
     #[test]
     fn with_odometry_a_rival_turned_half_round_from_its_guess_does_not_replace_the_pose() {
-        let map = map_of(&room(), 0.5);
-        let truth = Pose2::new(-0.5, -0.8, 0.2);
-        let mirror = Pose2::new(0.5, 0.8, 0.2 + std::f64::consts::PI);
+        let (map, truth, mirror) = room_and_its_mirror_pose();
         let scene = (&room()[..], &map, truth, mirror, 0);
         let odometry = MapperParams {
             motion_prior: MotionPrior::Odometry,
