@@ -1,8 +1,39 @@
-//! # polymap — geometric robot mapping
+//! Geometric robot mapping: 2D laser range scans, pushed one at a time, become the robot's
+//! trajectory and a compact map of a few generalized polylines ("Geometric Robot Mapping",
+//! Lakaemper, Latecki, Sun, Wolter). No I/O; metres and radians, frames named in identifiers.
 //!
-//! Turns a stream of 2D laser range scans into a compact global map of a few generalized
-//! polylines and the robot's trajectory, following "Geometric Robot Mapping" (Lakaemper,
-//! Latecki, Sun, Wolter). Metres and radians throughout; frames are named in identifiers.
+//! ```
+//! use polymap::{align::Verdict, config::Config, mapper::Mapper};
+//! use polymap_sim::{SimParams, World, simulate};
+//!
+//! // 60 scans of a simulated hallway: `RangeScan`s (ranges, beam angles, stamp, odometry).
+//! let sim = SimParams { max_scans: Some(60), ..SimParams::default() };
+//! let run = simulate(&World::hallway45(), &sim, 1);
+//! let mut mapper = Mapper::new(Config::default());
+//! let mut ok = 0;
+//! for scan in &run.scans {
+//!     let update = mapper.push(scan);
+//!     let pose = update.map_from_robot; // map frame = the first scan's robot frame
+//!     assert!(pose.x_m.is_finite() && pose.theta_rad.is_finite());
+//!     // `Ok`, or `Weak` / `Lost` with a reason (a bare corridor, a poor fit, ...).
+//!     ok += usize::from(update.diagnostics.tracking.verdict == Verdict::Ok);
+//!     let (segments, polylines) = (mapper.segments(), mapper.polylines());
+//!     assert!(polylines.iter().flatten().all(|&i| i < segments.len()));
+//! }
+//! mapper.finish().expect("loop closure ran"); // takes in pending loop corrections
+//! let truth = run.true_poses_in_first_frame();
+//! let (end, true_end) = (mapper.trajectory().last().unwrap(), truth.last().unwrap());
+//! assert!(end.translation().distance(true_end.translation()) < 0.2);
+//! assert!(!mapper.segments().is_empty());
+//! assert!(ok * 10 >= run.scans.len() * 9, "{ok} scans ok");
+//! ```
+//!
+//! Where to start: [`mapper::Mapper`] is the online mapper above (also continuing or
+//! localizing on a saved map, [`mapper::Mapper::on_map`]); [`config::Config`] holds every
+//! parameter, with presets. Reading logs is in `polymap-io`
+//! (`polymap_io::log::LogSource::open` reads CARMEN logs and ROS recordings alike), a whole
+//! run with its output folder in `polymap-pipeline` (`polymap_pipeline::pipeline::run`), and
+//! simulated logs with ground truth in `polymap-sim`.
 //!
 //! The pipeline, one module per stage, in order:
 //!
