@@ -1,4 +1,4 @@
-//! Tracking on the simulated worlds (issue 10): per world and step K (every K-th scan), the
+//! Tracking on the simulated worlds: per world and step K (every K-th scan), the
 //! ATE without odometry, with the odometry prior, and with the odometry prior on faulty
 //! odometry (slips, a 30 % heading bias, stalled wheels); the verdict counts without
 //! odometry; mapping speed; and the honesty check: scans whose tracked motion is more than

@@ -61,8 +61,8 @@ pub fn to_toml(config: &Config) -> Result<String> {
 mod tests {
     use super::*;
 
-    /// `--odometry` once set `icp_from_best_start_only` after the files were read, silently
-    /// beating a user's file; it is now a layer under the files.
+    /// `--odometry` is a layer under the files: what it sets (`icp_from_best_start_only`) a
+    /// user's file may set otherwise, and the file wins.
     #[test]
     fn a_config_file_beats_what_odometry_chooses() {
         let from_flag = effective_config("default", &[], true).unwrap();

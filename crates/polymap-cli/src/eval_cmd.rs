@@ -150,8 +150,8 @@ fn unit_quaternion_share(path: &Path) -> Result<Option<f64>> {
     Ok((lines > 0).then(|| unit as f64 / lines as f64))
 }
 
-/// `eval relations TRAJECTORY RELATIONS` with the files swapped once said only "no relation
-/// matched": name the file that is not what its place says.
+/// Names the file that is not what its place says in `eval relations TRAJECTORY RELATIONS`
+/// (the files swapped would otherwise only give "no relation matched").
 fn check_kinds(trajectory: &Path, relations: &Path) -> Result<()> {
     let usage = "usage: polymap eval relations TRAJECTORY.tum LOG.relations";
     if unit_quaternion_share(trajectory)?.is_some_and(|s| s < 0.5) {

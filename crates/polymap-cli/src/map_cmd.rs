@@ -130,8 +130,8 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         say_raw!("{}", to_toml(&config)?);
         return Ok(());
     }
-    // Before any work: a file named by -o, or a folder that cannot be written, is an error now,
-    // not after the whole mapping run.
+    // Before any work: a file named by -o, or a folder that cannot be written, is an error
+    // here, not after the whole mapping run.
     let folder = RunFolder::prepare(&a.output)?;
     let log = match &a.log {
         Some(p) => p.clone(),

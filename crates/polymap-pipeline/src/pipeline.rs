@@ -523,8 +523,8 @@ mod tests {
         }
     }
 
-    /// The progress bar once showed the bytes read ahead (100 % on a pipe with 57 % of the scans
-    /// mapped): each event carries the input position of the scan just mapped.
+    /// Each event carries the input position of the scan just mapped, not the bytes read ahead
+    /// (a progress bar following those shows 100 % on a pipe with 57 % of the scans mapped).
     #[test]
     fn progress_follows_the_scans_mapped_not_the_read_ahead() {
         let scans = scans(200);

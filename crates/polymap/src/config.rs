@@ -179,7 +179,7 @@ mod tests {
         assert!(keys >= 80, "only {keys} numeric keys found");
     }
 
-    /// Issue 14: zero ICP iterations made mapping take minutes.
+    /// Zero ICP iterations are refused: they make mapping take minutes.
     #[test]
     fn zero_icp_iterations_are_refused() {
         let mut c = Config::default();

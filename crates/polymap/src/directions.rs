@@ -261,8 +261,8 @@ mod tests {
         assert!((degs[1] - 90.0).abs() < 0.5);
     }
 
-    /// A flat-topped peak was taken at its left edge: with a 9-bin window a wall at 30.5° came
-    /// out at 26.5°.
+    /// A flat-topped peak is taken at its middle: taken at its left edge, with a 9-bin window a
+    /// wall at 30.5° comes out at 26.5°.
     #[test]
     fn wide_windows_still_find_the_wall() {
         let params = DirectionParams {

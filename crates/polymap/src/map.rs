@@ -335,7 +335,7 @@ impl GlobalMap {
     pub fn query(&self, lo: Vec2, hi: Vec2) -> Vec<SegmentId> {
         // A segment is listed in every grid cell within reach of it (tens of cells): marking
         // its slot once seen leaves only the distinct handles to sort (the search raster's box
-        // spans hundreds of cells; sorting every listing was 4 % of a sparse run).
+        // spans hundreds of cells; sorting every listing would cost about 4 % of a sparse run).
         let mut seen = vec![0u64; self.slots.len().div_ceil(64)];
         let mut ids = Vec::new();
         self.grid.for_keys_in_box(lo, hi, |id: SegmentId| {

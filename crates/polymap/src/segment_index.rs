@@ -761,8 +761,8 @@ mod tests {
         assert_eq!(certificate.answer(Vec2::new(2.0, 0.7), 0.25), None);
     }
 
-    /// Found in review: the search squares the distance it is given, the certificate once
-    /// compared a negative one as it was.
+    /// The search squares the distance it is given, so a negative one counts as its absolute
+    /// value; the certificate must not compare it as it is.
     #[test]
     fn a_certificate_treats_a_negative_distance_as_the_search_does() {
         let mut grid = SegmentIndex::new(0.5, 1.0);
@@ -789,8 +789,8 @@ mod tests {
 mod far_tests {
     use super::*;
 
-    /// Cells were i32 once: beyond about 1.07e9 m every segment fell in no cell and the mapper
-    /// silently stopped finding anything.
+    /// Cells are i64: with i32 cells, beyond about 1.07e9 m every segment would fall in no cell
+    /// and the mapper would silently stop finding anything.
     #[test]
     fn far_coordinates_still_index() {
         for offset in [1e8, 1.2e9, 1e12] {

@@ -217,7 +217,8 @@ fn exports_are_written_during_mapping_and_again_from_a_finished_run() {
     );
 }
 
-/// `polymap … | head` once panicked ("failed printing to stdout: Broken pipe").
+/// A closed standard output (`polymap … | head`) ends the output quietly, without a panic
+/// ("failed printing to stdout: Broken pipe").
 #[test]
 fn closed_stdout_does_not_panic() {
     let dir = tempfile::tempdir().unwrap();
@@ -278,7 +279,9 @@ fn a_log_without_scans_is_an_error_and_one_without_returns_a_warning() {
     );
 }
 
-/// Export and eval once paired log scans with trajectory poses by position, silently.
+/// Export and eval check that a trajectory matches the log before pairing its poses with the
+/// log's scans: a trajectory that does not match is an error, not paired by position in
+/// silence.
 #[test]
 fn a_trajectory_that_does_not_match_the_log_is_an_error() {
     let dir = tempfile::tempdir().unwrap();
@@ -328,7 +331,7 @@ fn a_trajectory_that_does_not_match_the_log_is_an_error() {
     );
 }
 
-/// --config once replaced the preset instead of being laid over it.
+/// --config is laid over the preset (it does not replace it), and bad values are refused.
 #[test]
 fn a_config_file_is_laid_over_the_preset_and_bad_values_are_refused() {
     let dir = tempfile::tempdir().unwrap();

@@ -9,8 +9,8 @@ use polymap_io::carmen::{CarmenReader, ReaderOptions};
 use crate::support::{datasets, map_quietly, polymap, text};
 
 /// Intel's first 150 scans are taken standing still in a corridor. A constant-velocity guess
-/// once turned ICP's drift along the corridor into a 47 m slide. A person walking by moves the
-/// estimate a few centimetres (6.7 cm at scan 22 today); 15 cm catches any slide.
+/// can turn ICP's drift along the corridor into a 47 m slide. A person walking by moves the
+/// estimate a few centimetres (6.7 cm at scan 22); 15 cm catches any slide.
 #[test]
 fn intel_stationary_start_does_not_slide() {
     let Some(dir) = datasets() else {
@@ -67,12 +67,12 @@ fn a_sparse_aces_run_that_breaks_is_told_by_the_odometry_and_the_dense_one_is_no
 
 /// Intel every 5th scan, phase 4, under a nuisance variant of the thinning (0.054 m between
 /// points, 44 rotation search points): the robot spins on the spot at about 25° per kept scan.
-/// At kept scan 2502 the pose taken turned 0.2°, a poor fit (44 % of the points), and the
-/// window search's rival, ICP from which turns 32° and fits 60 %, was not tried because the
-/// scan was no `ok` one. The tracked turn must be within 10° of the log's odometry (27°: over
+/// At kept scan 2502 the pose first taken turns 0.2°, a poor fit (44 % of the points), and the
+/// window search's rival, ICP from which turns 32° and fits 60 %, must be tried although the
+/// scan is no `ok` one. The tracked turn must be within 10° of the log's odometry (27°: over
 /// one step of a spin on the spot the odometry's turn is good to a degree or two). The run as
-/// a whole is still broken by other spins (0.40 m, 0.66 m before; README, "Broken maps that
-/// still pass silently"): this checks the one step. Whole log, release build: about 2 s.
+/// a whole is broken by other spins (0.40 m): this checks the one step. Whole log, release
+/// build: about 2 s.
 #[test]
 fn intel_every_fifth_scan_takes_the_rival_over_a_poor_fit_in_a_spin() {
     let Some(dir) = datasets() else {
@@ -134,9 +134,9 @@ fn intel_every_fifth_scan_takes_the_rival_over_a_poor_fit_in_a_spin() {
 /// FR079 every 3rd scan seen by a short-range laser (returns beyond 5.6 m dropped, as a
 /// Hokuyo URG-04LX's would be): in a corridor whose far walls are out of range, a few points
 /// put five steps 0.2-0.4 m back where the robot drove 0.3 m on, each `weakly_observed`, and
-/// the map came out 1.09 m off with no warning. A step back against the speed last observed
-/// is now checked along the weak axis as a stop is (0.21 m). Whole log, release build: about
-/// 2 s.
+/// the map would come out 1.09 m off with no warning. A step back against the speed last
+/// observed is checked along the weak axis as a stop is (0.21 m). Whole log, release build:
+/// about 2 s.
 #[test]
 fn fr079_every_third_scan_with_a_short_range_laser_does_not_back_on_weak_evidence() {
     let Some(dir) = datasets() else {
@@ -202,9 +202,9 @@ fn mean_relation_error(run: &std::path::Path, relations: &std::path::Path) -> f6
 }
 
 /// Intel every 10th scan, phase 9: the robot turns on the spot at corridor junctions and drives
-/// on into corridors that ICP observes only weakly along. The speed taken there was the turn's
-/// standstill, so the robot was held at every junction (6.24 m mean relation error, the map
-/// called inconsistent); the speed driven before the turn keeps it (0.04 m). Whole log,
+/// on into corridors that ICP observes only weakly along. Taking the turn's standstill as the
+/// speed there holds the robot at every junction (6.24 m mean relation error, the map called
+/// inconsistent); the speed driven before the turn keeps it (0.04 m). Whole log,
 /// release build: about 2 s.
 #[test]
 fn intel_every_tenth_scan_drives_on_after_turns_on_the_spot() {
@@ -213,16 +213,16 @@ fn intel_every_tenth_scan_drives_on_after_turns_on_the_spot() {
         return;
     };
     let (mean, stderr) = every_kth(&dir, "intel", "10", "9");
-    // The issue's bound at K = 10; the broken run was 25 times over it.
+    // The bound at K = 10; a robot held at every junction is 25 times over it.
     assert!(mean < 0.25, "{mean} m");
     assert!(!stderr.contains("inconsistent"), "{stderr}");
 }
 
 /// FR079 every 10th scan, phase 0: at scan 363, in a zig-zag of turns, the window search
 /// scored the corridor turned by 180° just above the truth, and ICP from the former fitted 85
-/// of 176 points where ICP from the truth, the search's rival, fitted 111. The rest of the map
-/// was built half turned (8.44 m); ICP from the rival replaces it (0.02 m). Whole log,
-/// release build: about 1 s.
+/// of 176 points where ICP from the truth, the search's rival, fitted 111. Taking the former
+/// builds the rest of the map half turned (8.44 m); ICP from the rival replaces it (0.02 m).
+/// Whole log, release build: about 1 s.
 #[test]
 fn fr079_every_tenth_scan_takes_the_rival_that_fits_over_a_mirror_image() {
     let Some(dir) = datasets() else {

@@ -1,4 +1,4 @@
-//! Nothing lost, nothing half-written, nothing odd accepted in silence (issue 14): the run
+//! Nothing lost, nothing half-written, nothing odd accepted in silence: the run
 //! folder's writes, inputs from stdin and compressed files, interruption, odd logs.
 
 use std::fs;
@@ -53,8 +53,8 @@ fn assert_whole(dir: &Path) -> usize {
     poses
 }
 
-/// `kill -9` while history.json was written once left it cut at 2 MB (invalid JSON). The
-/// fault hook aborts the process in the middle of that file, as a kill would.
+/// A run killed while it writes history.json (about 2 MB) leaves no file cut short (invalid
+/// JSON). The fault hook aborts the process in the middle of that file, as a kill would.
 #[test]
 fn a_run_killed_while_writing_leaves_no_cut_file() {
     let dir = tempfile::tempdir().unwrap();
@@ -130,8 +130,9 @@ fn kill_9_at_any_moment_leaves_whole_files() {
     }
 }
 
-/// On a full disk the 6 MB report was written first and map.json and trajectory.tum were lost.
-/// Through a small tmpfs when this runs as root (mount allowed), else an injected ENOSPC.
+/// On a full disk map.json and trajectory.tum survive (written before the 6 MB report), and the
+/// error names the file that failed. Through a small tmpfs when this runs as root (mount
+/// allowed), else an injected ENOSPC.
 #[test]
 fn a_full_disk_keeps_the_contract_files_and_says_which_file_failed() {
     let dir = tempfile::tempdir().unwrap();
@@ -175,7 +176,8 @@ fn a_full_disk_keeps_the_contract_files_and_says_which_file_failed() {
     assert!(!run.join("report.html").exists() || !mounted);
 }
 
-/// A read-only output folder was discovered only after the whole mapping run.
+/// A read-only output folder, or an output that is a file, is refused before mapping, not
+/// after the whole run.
 #[test]
 fn an_unwritable_or_wrong_output_is_refused_before_mapping() {
     let dir = tempfile::tempdir().unwrap();
@@ -214,7 +216,8 @@ fn an_unwritable_or_wrong_output_is_refused_before_mapping() {
     );
 }
 
-/// A folder holding an earlier run kept its old map.png, map.dxf … beside the new map.json.
+/// A folder holding an earlier run: its exports that this run does not write (map.png,
+/// map.dxf …) are removed, and said so, so that none stands beside the new map.json.
 #[test]
 fn exports_of_an_earlier_run_are_removed_and_said_so() {
     let dir = tempfile::tempdir().unwrap();
@@ -276,8 +279,9 @@ fn map_from_stdin(log: &Path, run: &Path, extra: &[&str]) -> Output {
     out
 }
 
-/// `polymap map - -o out` failed (`-: cannot open`); `--export pgm` from a stream failed after
-/// mapping, and a later `polymap export` waited silently on the terminal.
+/// A log on standard input (`polymap map - -o out`) maps with every export, `--export pgm`
+/// (which needs the scans again) included; a later `polymap export` that needs the log is
+/// refused at once instead of waiting silently on the terminal.
 #[test]
 fn a_log_on_stdin_maps_with_every_export_and_a_later_export_refuses() {
     let dir = tempfile::tempdir().unwrap();
@@ -343,7 +347,8 @@ fn a_log_on_stdin_maps_with_every_export_and_a_later_export_refuses() {
     );
 }
 
-/// A gzip log said "line 1 is not valid UTF-8"; compressed logs are now simply read.
+/// Compressed logs (gzip, bzip2) are read directly, not refused as invalid UTF-8, and map as
+/// the plain log does.
 #[test]
 fn gzip_and_bzip2_logs_map_like_the_plain_log() {
     let dir = tempfile::tempdir().unwrap();
@@ -387,8 +392,8 @@ fn gzip_and_bzip2_logs_map_like_the_plain_log() {
     assert!(maps.windows(2).all(|w| w[0] == w[1]));
 }
 
-/// Control and escape bytes from a log reached the terminal raw (a binary file dumped 1.7 KB
-/// of them, ESC sequences included).
+/// Control and escape bytes from a log are escaped in every message, never sent to the
+/// terminal raw (a binary file read as a log holds 1.7 KB of them, ESC sequences included).
 #[test]
 fn control_bytes_from_a_log_are_escaped_in_every_message() {
     let dir = tempfile::tempdir().unwrap();
@@ -429,7 +434,7 @@ fn control_bytes_from_a_log_are_escaped_in_every_message() {
     }
 }
 
-/// `-q` still printed the summary line.
+/// `-q` prints nothing on success, not even the summary line.
 #[test]
 fn quiet_prints_nothing_on_success() {
     let dir = tempfile::tempdir().unwrap();
@@ -450,7 +455,7 @@ fn quiet_prints_nothing_on_success() {
     assert!(o.stdout.is_empty(), "{}", text(&o));
 }
 
-/// Ctrl-C mid-run saved nothing: now it saves what was mapped, says so and exits with 130.
+/// Ctrl-C mid-run saves what was mapped, says so and exits with 130.
 #[test]
 fn ctrl_c_saves_what_was_mapped() {
     let dir = tempfile::tempdir().unwrap();
@@ -502,7 +507,8 @@ fn ctrl_c_saves_what_was_mapped() {
     assert_eq!(summary["interrupted"], true);
 }
 
-/// ROBOTLASER1 with angular resolution 0, 1e-300 or 1e9 mapped to 0–2 segments in silence.
+/// ROBOTLASER1 lines with an angular resolution of 0, 1e-300 or 1e9 (taken as given they map
+/// to 0–2 segments) are refused or warned about, not mapped in silence.
 #[test]
 fn odd_carmen_logs_are_refused_or_warned() {
     let dir = tempfile::tempdir().unwrap();
@@ -553,8 +559,9 @@ fn odd_carmen_logs_are_refused_or_warned() {
     );
 }
 
-/// `eval relations` with its files swapped said "no relation matched"; a trajectory covering a
-/// small part of the relations passed without a word.
+/// `eval relations` with its files swapped names the file that is not what its place says,
+/// rather than reporting that no relation matched; a trajectory covering a small part of the
+/// relations is warned about.
 #[test]
 fn eval_relations_names_a_swapped_file_and_warns_on_low_coverage() {
     let dir = tempfile::tempdir().unwrap();
@@ -600,9 +607,10 @@ fn eval_relations_names_a_swapped_file_and_warns_on_low_coverage() {
     );
 }
 
-/// `eval map` on the built-in world reported precision 38 %, recall 37 % for a map that looks
-/// right: it compared in the first scan's frame, where the whole map is turned about half a
-/// degree. Now it lays the map onto the walls first and reports the placement separately.
+/// `eval map` lays the map onto the walls before scoring its shape and reports the placement
+/// separately: in the first scan's frame the built-in world's map, which looks right, is
+/// turned about half a degree as a whole, and scored there it gets precision 38 %, recall
+/// 37 %.
 #[test]
 fn eval_map_measures_the_shape_after_aligning_and_the_placement_apart() {
     let dir = tempfile::tempdir().unwrap();
@@ -626,8 +634,8 @@ fn eval_map_measures_the_shape_after_aligning_and_the_placement_apart() {
     );
     let turned = v["walls_alignment"]["theta_deg"].as_f64().unwrap();
     println!("hallway45: aligned precision {p:.3} recall {r:.3}, turned {turned:.2}°");
-    // The aligned figures are one draw of the tracking and loop closure: 62–88 % over seeds
-    // 1–3 of the world with the builds of sessions 9 and 10; unaligned, the bug gave 38 %.
+    // The aligned figures are one draw of the tracking and loop closure: 62–88 % measured over
+    // the world's seeds 1–3; unaligned, 38 %.
     assert!(p > 0.55 && r > 0.55, "{v}");
     assert!(turned.abs() < 2.0, "{v}");
     assert!(v["walls_unaligned"]["precision"].as_f64().unwrap() <= p + 1e-9);
@@ -657,8 +665,8 @@ fn shift_odometry(from: &Path, to: &Path, shift: impl Fn(usize) -> Option<f64>) 
     fs::write(to, shifted).unwrap();
 }
 
-/// A 1 km odometry jump with --odometry was accepted in silence (mean error 261 m on Intel):
-/// now it is counted, warned about, and that scan's odometry is not used.
+/// A 1 km odometry jump with --odometry is counted, warned about, and that scan's odometry is
+/// not used (taken at its word, it puts Intel's mean error at 261 m).
 #[test]
 fn an_odometry_jump_is_warned_and_does_not_wreck_the_map() {
     let dir = tempfile::tempdir().unwrap();

@@ -254,8 +254,8 @@ fn relations_truth(a: &Path, b: &Path, relations: &Path) -> Pose2 {
     )
 }
 
-/// FR079's halves merge near the truth; Intel's A with FR079's B is refused. The issue's
-/// target is 0.1 m and 1°; FR079 reaches 0.24 m and 1.1° (the halves' maps disagree by that
+/// FR079's halves merge near the truth; Intel's A with FR079's B is refused. The target is
+/// 0.1 m and 1°; FR079 reaches 0.24 m and 1.1° (the halves' maps disagree by that
 /// much where they overlap: aligned to the full run's map instead, 0.07 m and 0.06°), so the
 /// check is 0.35 m and 1.5°. Release only (maps FR079 whole and in halves, and Intel's first
 /// half: about 10 s).

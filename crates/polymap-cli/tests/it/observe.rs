@@ -1,4 +1,4 @@
-//! Keeping the map true (issue 12 item 4): a cupboard carried away half way through the
+//! Keeping the map true: a cupboard carried away half way through the
 //! simulated `moved` tour leaves a ghost in the map; `--prune-contradicted` removes it and no
 //! segment on a true wall.
 

@@ -1,4 +1,4 @@
-//! Mapping simulated worlds for the tracking checks (issue 10): every K-th scan, with or
+//! Mapping simulated worlds for the tracking checks: every K-th scan, with or
 //! without the odometry prior, with or without faulty odometry; the verdicts, the poses as
 //! tracked, the final poses, and how well the true geometry constrains each scan.
 //!

@@ -7,8 +7,7 @@
 //! 0.04, 0.13, 0.04 m), so a regression shows while floating-point or ordering changes do not.
 //! The map must explain the data (share of scan points within 10 cm of a segment, with the
 //! final poses), lie on the true walls after the same alignment (precision within 10 cm), and
-//! stay small: at most about twice the number of true walls the laser saw (the issue's
-//! criterion).
+//! stay small: at most about twice the number of true walls the laser saw.
 
 use polymap::config::Config;
 use polymap::geometry::{Pose2, Segment};

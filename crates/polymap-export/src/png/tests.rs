@@ -103,7 +103,8 @@ fn write_png_names_the_file_on_error() {
     );
 }
 
-/// A map too large to draw once failed with an empty file name and a "0 x 0 picture".
+/// A map too large to draw (its extent not finite) is an error naming the file, not one with an
+/// empty file name and a "0 x 0 picture".
 #[test]
 fn a_map_too_large_to_draw_is_a_clear_error_naming_the_file() {
     use polymap::geometry::Segment;

@@ -132,8 +132,8 @@ fn report_passes_its_self_test_in_headless_chromium() {
     );
 }
 
-/// Regression: the script once found "SELFTEST PASS" in the page's own script text, so a page
-/// whose script died still passed.
+/// A report whose script dies fails the browser check with its reason (`SELFTEST FAIL: init:`):
+/// the page's own script text holds "SELFTEST PASS", so finding it there proves nothing.
 #[test]
 fn a_broken_report_fails_the_browser_check_with_its_reason() {
     let Some(chromium) = chromium_on_path() else {

@@ -1,6 +1,6 @@
-//! map.svg through librsvg (`rsvg-convert`), the renderer of GNOME's viewers: it once drew
-//! `vector-effect="non-scaling-stroke"` lines of width "2" as 2 m wide strokes and the scale
-//! bar as a black box.
+//! map.svg through librsvg (`rsvg-convert`), the renderer of GNOME's viewers, which can draw
+//! `vector-effect="non-scaling-stroke"` lines of width "2" as 2 m wide strokes and a scale bar
+//! as a black box: the picture must come out with thin walls and a thin scale bar.
 
 use std::process::Command;
 

@@ -1,4 +1,4 @@
-//! What the reader once accepted in silence: refused naming the line, or counted.
+//! Odd CARMEN input the reader does not accept in silence: refused naming the line, or counted.
 
 use super::tests::{flaser, read_all, reader};
 use super::*;

@@ -1,4 +1,4 @@
-//! Pose hypotheses for a scan that moved beyond the window search (issue 10, large motions):
+//! Pose hypotheses for a scan that moved beyond the window search (a large motion):
 //! the scan's corners (pairs of its non-parallel segments that meet, [`corners`]) matched to
 //! the corners of the map near the prediction, each match one rigid pose ([`corner_poses`](crate::align::corner_poses):
 //! the paper's own vocabulary of segments), any rotation, verified by the search raster's

@@ -530,8 +530,8 @@ impl Tracking {
     /// observed, the last `ok` pose that bounds the reach, the support its sightings give the
     /// walls, the odometry's travel check): `ok`, or `weak` only as `slowed` or
     /// `off_odometry`. Those verdicts tell the user the step may be wrong; tracking from it is
-    /// unchanged, since keeping such scans out of that state reshuffled the sparse runs
-    /// (session 21; ARCHITECTURE, "Verdict", `slowed`), and the odometry's travel check,
+    /// unchanged, since keeping such scans out of that state reshuffles the sparse runs
+    /// (ARCHITECTURE, "Verdict", `slowed`), and the odometry's travel check,
     /// which decides whether the odometry may witness at all, must see every step it judges.
     pub fn carries_tracking(&self) -> bool {
         self.verdict == Verdict::Ok
@@ -543,8 +543,8 @@ impl Tracking {
     /// for a poor fit or an ambiguous search unless `merge_doubtful_scans`; not for one placed
     /// by a corner hypothesis unless it is `ok` (a pose away from the prediction enters the
     /// map only when the scan fits there without doubt; the scan still tracks from it) or
-    /// only `off_odometry`, a label: keeping those out too took ACES every 5th scan, phase 2,
-    /// from 0.076 to 0.330 m (session 22).
+    /// only `off_odometry`, a label: keeping those out too takes ACES every 5th scan, phase 2,
+    /// from 0.076 to 0.330 m.
     pub fn enters_map(&self, merge_doubtful_scans: bool) -> bool {
         let doubtful = matches!(self.reason, Reason::PoorFit | Reason::Ambiguous);
         let confident = self.verdict == Verdict::Ok || self.reason == Reason::OffOdometry;

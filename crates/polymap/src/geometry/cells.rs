@@ -2,8 +2,8 @@
 
 /// `v.floor() as i64`, exactly (saturating at the ends of `i64`, 0 for NaN), without a call to
 /// a software `floor`: the default x86-64 target has no rounding instruction, and the
-/// correlative matcher and the segment index take the cell of every point (session 11: the
-/// library call was about 6 % of every 5th scan of FR079).
+/// correlative matcher and the segment index take the cell of every point (the library call
+/// costs about 6 % of a run over every 5th scan of FR079).
 ///
 /// ```
 /// use polymap::geometry::floor_i64;

@@ -332,7 +332,8 @@ fn every_key_is_checked() {
     }
 }
 
-/// Issue 13: a panic on the loop thread was turned into an empty outcome without a trace.
+/// A panic on the loop thread stops loop closure and is reported with the node it failed on,
+/// not turned into an empty outcome without a trace.
 #[test]
 fn a_failure_of_the_graph_stops_loop_closure_and_is_reported() {
     let params = LoopParams {

@@ -103,8 +103,8 @@ fn empty_scans_do_not_break_the_loop() {
     assert!(u.diagnostics.scan_segments > 0 && !mapper.map().is_empty());
 }
 
-/// A scan without a valid point once kept the constant-velocity guess, so the robot drove on
-/// through every blind scan.
+/// A scan without a valid point stays where the last scan was: kept at the constant-velocity
+/// guess, the robot would drive on through every blind scan.
 #[test]
 fn blind_scans_after_the_first_stay_put() {
     let walls = room();
@@ -189,7 +189,7 @@ fn a_turn_during_a_gap_is_recovered() {
 }
 
 /// A scan that fits badly (mostly unmapped clutter) where no map lies within the recovery's
-/// reach keeps its ICP result; it once fell back to the anchor.
+/// reach keeps its ICP result rather than falling back to the anchor.
 #[test]
 fn a_bad_fit_far_from_the_map_keeps_its_icp_result() {
     let far = vec![
@@ -234,8 +234,8 @@ fn a_bad_fit_far_from_the_map_keeps_its_icp_result() {
 /// A kidnapped robot: after mapping one end of the room it is carried 5 m away and turned; its
 /// scans are lost (not merged) until the whole-map search finds it again.
 #[test]
-#[ignore = "issue 10: the first carried scan fits 51 % of its points at a wrong pose (70 of 73 \
-            correspondences within 5 cm), so it is only `weak` and enters the map; the \
+#[ignore = "not handled: the first carried scan fits 51 % of its points at a wrong pose (70 \
+            of 73 correspondences within 5 cm), so it is only `weak` and enters the map; the \
             following scans then fit that copy. Needs a free-space check that works on \
             cluttered maps (rays through map walls: 11-56 % median on the real logs)."]
 fn a_kidnapped_robot_is_lost_then_found_again() {

@@ -142,8 +142,8 @@ mod tests {
             .prop_map(|(x, y, dx, dy)| Segment::new(Vec2::new(x, y), Vec2::new(x + dx, y + dy)))
     }
 
-    /// Found in review: the walk's box test once rejected a target that the projection's
-    /// rounding puts within the insertion distance, where the R-tree's looser envelope kept it.
+    /// A target that the projection's rounding puts just within the insertion distance: the
+    /// walk's box test must keep it, as the R-tree's looser envelope does.
     #[test]
     fn walk_and_tree_agree_at_the_insertion_distance() {
         let target = Segment::new(

@@ -326,8 +326,8 @@ mod prop {
 
 /// The observation records through one merge: the wall the scan saw again is seen at `t` with
 /// its counts kept; a ghost near the scan that paired with nothing keeps its record; a scan
-/// segment that paired with nothing is born at `t`. (Found writing it: the merged wall took the
-/// crossing ghost's counts, until inheritance asked for roughly parallel members.)
+/// segment that paired with nothing is born at `t`. The merged wall must not take the crossing
+/// ghost's counts: a record is inherited only from roughly parallel members.
 #[test]
 fn merged_segments_inherit_their_sources_records() {
     use crate::map::{GlobalMap, MapSegment, Observations};
