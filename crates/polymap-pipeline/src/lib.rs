@@ -18,3 +18,9 @@
 
 pub mod folder;
 pub mod pipeline;
+
+/// The README's Rust example, compiled as a doctest so that the guide cannot rot (its shell
+/// commands are run by `polymap-cli`'s end-to-end test `readme`).
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeExample;

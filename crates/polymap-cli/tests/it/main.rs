@@ -7,6 +7,7 @@ mod hardening;
 mod lifelong;
 mod merge;
 mod observe;
+mod readme;
 mod ros;
 mod support;
 mod tracking;
