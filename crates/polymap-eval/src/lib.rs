@@ -1,4 +1,4 @@
-//! # polymap-eval — how good are a polymap trajectory and map?
+//! # polymap-eval — trajectory and map accuracy against ground truth
 //!
 //! Metrics over in-memory data (reading logs and trajectory files is `polymap-io`'s job).
 //! Metres and radians inside; degrees only in reported figures, named `_deg`.

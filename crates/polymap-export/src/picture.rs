@@ -1,5 +1,5 @@
-//! What every picture of a map shares (SVG here, PNG in `polymap-export`): the drawn extent in
-//! metres, the scale bar's round length and label, and the polyline palette.
+//! What every picture of a map shares (the SVG and the PNG): the drawn extent in metres, the
+//! scale bar's round length and label, and the polyline palette.
 
 use polymap::geometry::Vec2;
 use polymap::map::MapSegment;

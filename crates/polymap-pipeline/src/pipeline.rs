@@ -1,4 +1,4 @@
-//! The run: read → prepare → push → record.
+//! A mapping run over any scan source: read → prepare → push → record.
 //!
 //! Reading and preparation (ranges to points, once; points to segments) run ahead on a second
 //! thread; the mapping, which carries state from scan to scan, stays on the calling thread, in

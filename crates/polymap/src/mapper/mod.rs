@@ -1,4 +1,5 @@
-//! The incremental mapper: owns `G_t` and the motion state between scans.
+//! The incremental mapper ([`Mapper`]): scans pushed one at a time into the global map `G_t`,
+//! with the pose, tracking verdict and motion state carried from scan to scan.
 //!
 //! For each scan: points → segments (robot frame) → ICP against the map near the scan, started
 //! from the motion prior → segments to the map frame → main directions of `G_{t-1}(tm)` →
