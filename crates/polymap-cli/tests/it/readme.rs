@@ -4,8 +4,9 @@
 //! built `polymap` first on the `PATH` (as `cargo install` would put it), under `bash -e -o
 //! pipefail`. `cargo run --release -p polymap-cli --` is the same binary and runs as
 //! `polymap`; `cargo install` and `cargo test` are the only lines not run (this test is part of
-//! the latter). Blocks fenced `sh datasets` need the shared benchmark logs: they run with those
-//! files linked into the folder, and print `SKIPPED` when `../shared/datasets` is absent. The
+//! the latter). Blocks fenced `sh datasets` need the shared benchmark logs, which they name as
+//! `../shared/datasets/…` from the repository's folder: the scratch folder gets the same
+//! `../shared` beside it, and they print `SKIPPED` when `../shared/datasets` is absent. The
 //! README's Rust example is compiled as a doctest of `polymap-pipeline`.
 
 use std::fs;
@@ -136,22 +137,6 @@ fn run_block(block: &Block, dir: &Path, bin: &Path) -> usize {
     commands
 }
 
-/// Links every file of the shared datasets' log folders into `dir`, so that the README's
-/// commands name them as a user with the files at hand would.
-fn link_datasets(root: &Path, dir: &Path) {
-    for sub in ["intel", "aces", "fr079", "ros"] {
-        let Ok(entries) = fs::read_dir(root.join(sub)) else {
-            continue;
-        };
-        for entry in entries.flatten() {
-            let target = dir.join(entry.file_name());
-            if !target.exists() {
-                std::os::unix::fs::symlink(entry.path(), target).expect("a symlink");
-            }
-        }
-    }
-}
-
 #[test]
 fn every_command_in_the_readme_runs() {
     let (_, text) = readme();
@@ -164,9 +149,13 @@ fn every_command_in_the_readme_runs() {
     let dir = work.path().join("work");
     fs::create_dir(&dir).expect("work folder");
 
+    // `../shared/datasets` from the scratch folder is the datasets folder, as it is from the
+    // repository's folder.
     let data = datasets();
     if let Some(root) = &data {
-        link_datasets(root, &dir);
+        fs::create_dir(work.path().join("shared")).expect("shared folder");
+        std::os::unix::fs::symlink(root, work.path().join("shared/datasets"))
+            .expect("a symlink to the datasets");
     }
     let mut run = 0;
     for block in &blocks {
