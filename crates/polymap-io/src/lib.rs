@@ -16,7 +16,7 @@
 //! - [`log`]: the one entry point, [`log::LogSource`], that tells a log's kind by its content
 //!   and yields its scans whatever the format.
 //!
-//! Writers (results out, see "Contracts other tools rely on" in `ARCHITECTURE.md`):
+//! Writers (results out, formats in `docs/MAP_FORMAT.md`):
 //!
 //! - [`tum`]: trajectories in the TUM format (`stamp x y z qx qy qz qw`), and a reader.
 //! - [`map_json`]: the `map.json` contract (segments, polylines), and a reader.

@@ -1,5 +1,5 @@
 //! Criterion bench of the nearest-segment index against the R-trees it replaced, on the same
-//! queries: the decision behind `polymap::segment_index` (docs/ARCHITECTURE.md, decisions).
+//! queries: the decision behind `polymap::segment_index` (`docs/decisions/2026-11-23-one-segment-index.md`).
 //!
 //! Inputs: the map of a default-configured `Mapper` after the warm-up scans of the Intel log
 //! and of the simulated `hallway45` world (see `support`; `POLYMAP_BENCH_WARM_SCANS=5000` for

@@ -200,10 +200,17 @@ fn the_guide_and_the_design_stay_short() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
     for (file, most, why) in [
         ("README.md", 350, "a guide; figures go to docs/RESULTS.md"),
-        ("docs/ARCHITECTURE.md", 800, "the design; reasons go to docs/decisions/"),
+        (
+            "docs/ARCHITECTURE.md",
+            800,
+            "the design; reasons go to docs/decisions/",
+        ),
     ] {
         let text = fs::read_to_string(root.join(file)).expect("the file reads");
         let lines = text.lines().count();
-        assert!(lines <= most, "{file} has {lines} lines, at most {most}: {why}");
+        assert!(
+            lines <= most,
+            "{file} has {lines} lines, at most {most}: {why}"
+        );
     }
 }

@@ -364,7 +364,7 @@ fn corner_turn_rad(odometry: bool, tracking: &TrackParams) -> f64 {
 /// `weak` for a poor fit, or any pose that fits fewer than `search_below_inlier_share` of the
 /// points (a fit that would be searched whatever the motion: FR079 with odometry at every 5th
 /// scan, phase 4, took a step of 0.52 m forward from odometry where the robot backed 0.49 m,
-/// as `ok` with 44 % of its points inliers; see ARCHITECTURE, "Corner hypotheses").
+/// as `ok` with 44 % of its points inliers; see `docs/ARCHITECTURE.md`, "The strategy, per scan").
 /// Endpoint ICP (`--preset paper`) counts endpoint pairs against the scan's points, a share
 /// that is nearly always under half, so there only the verdict decides.
 fn doubtful(tracking: &Tracking, config: &TrackConfig) -> bool {

@@ -531,7 +531,7 @@ impl Tracking {
     /// walls, the odometry's travel check): `ok`, or `weak` only as `slowed` or
     /// `off_odometry`. Those verdicts tell the user the step may be wrong; tracking from it is
     /// unchanged, since keeping such scans out of that state reshuffles the sparse runs
-    /// (ARCHITECTURE, "Verdict", `slowed`), and the odometry's travel check,
+    /// (`docs/ARCHITECTURE.md`, "The verdict and what a run says"), and the odometry's travel check,
     /// which decides whether the odometry may witness at all, must see every step it judges.
     pub fn carries_tracking(&self) -> bool {
         self.verdict == Verdict::Ok

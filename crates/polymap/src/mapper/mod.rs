@@ -869,7 +869,7 @@ use tracking::ObservedSpeed;
 /// The doubt on a scan's motion for the pose graph: along the direction ICP could not observe
 /// when the scan is `weak` for it (`degenerate`: the motion along it came from the prior),
 /// else none. (Doubting `weakly_observed` scans too, or poor, ambiguous and lost fits in every
-/// direction, let wrong loop edges bend Intel: `docs/ARCHITECTURE.md`, "Loop closure".)
+/// direction, let wrong loop edges bend Intel: `docs/decisions/2026-11-21-loop-closure.md`.)
 fn motion_doubt(tracking: &Tracking) -> MotionDoubt {
     match (
         tracking.verdict,

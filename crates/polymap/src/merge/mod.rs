@@ -62,7 +62,7 @@ pub struct MergeParams {
     /// wall a third to a half of the way to the latest scan, so the map follows each scan's
     /// small error and dense runs drift more than sparse ones. `weak` scans do not add
     /// support: along a wall they may have slid, and what they placed must stay movable.
-    /// Default 10 (`--preset paper`: 1); measured in `docs/ARCHITECTURE.md` ("Support").
+    /// Default 10 (`--preset paper`: 1); measured in `docs/decisions/2026-11-26-support.md`.
     pub support_cap: f64,
 }
 
