@@ -135,7 +135,9 @@ class Stamp:
         else:
             commit = "commit %s" % self.head
         text = "Measured on %s (UTC) at %s on %s." % (when, commit, self.machine)
-        if self.dirty:
+        if self.commit:
+            pass  # the binary's commit is given: the working tree's state says nothing of it
+        elif self.dirty:
             text += (" When measured, the working tree had uncommitted changes under crates/ "
                      "(%d file%s)." % (len(self.dirty), "" if len(self.dirty) == 1 else "s"))
         else:
@@ -204,6 +206,30 @@ def write_section(key, text, path=RESULTS):
     path = Path(path)
     document = path.read_text(encoding="utf-8") if path.is_file() else new_file()
     document = replace_section(document, key, text)
+    _write_atomically(path, document)
+    print("wrote section %s of %s" % (key, path), file=sys.stderr, flush=True)
+
+
+README = REPO / "README.md"
+README_BEGIN = "<!-- BEGIN results: written by scripts/accuracy --write-results -->"
+README_END = "<!-- END results -->"
+
+
+def write_readme_table(text, path=README):
+    """Replaces the results table of README.md (between README_BEGIN and README_END)."""
+    path = Path(path)
+    document = path.read_text(encoding="utf-8")
+    i = document.find(README_BEGIN)
+    j = document.find(README_END, i + len(README_BEGIN)) if i >= 0 else -1
+    if i < 0 or j < 0:
+        raise ValueError("%s: no results markers (%s … %s)" % (path, README_BEGIN, README_END))
+    document = (document[:i] + README_BEGIN + "\n" + text.strip("\n") + "\n" +
+                document[j:])
+    _write_atomically(path, document)
+    print("wrote the results table of %s" % path, file=sys.stderr, flush=True)
+
+
+def _write_atomically(path, document):
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix="." + path.name + ".", dir=str(path.parent))
     try:
@@ -219,4 +245,3 @@ def write_section(key, text, path=RESULTS):
         except OSError:
             pass
         raise
-    print("wrote section %s of %s" % (key, path), file=sys.stderr, flush=True)
