@@ -20,7 +20,7 @@ use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_pipeline::folder::{
-    DIAGNOSTICS_FILE, RunFiles, RunFolder, percentiles_ms, summary_json,
+    DIAGNOSTICS_FILE, RunFiles, RunFolder, check_output_apart, percentiles_ms, summary_json,
 };
 use polymap_pipeline::pipeline::{self, PipelineOptions, RunRecord, ScanEvent};
 use serde_json::json;
@@ -78,6 +78,14 @@ impl SavedMap {
         })
     }
 
+    /// What the saved map is to the run, for messages.
+    fn role_name(&self) -> &'static str {
+        match self.role {
+            MapRole::Localize => "map to localize in (--map)",
+            MapRole::Build => "map to resume (--resume)",
+        }
+    }
+
     fn mapper(&self, config: &Config, start: Option<Pose2>) -> Mapper {
         let prior = PriorMap {
             segments: self.map.map_segments(),
@@ -130,8 +138,16 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         say_raw!("{}", to_toml(&config)?);
         return Ok(());
     }
-    // Before any work: a file named by -o, or a folder that cannot be written, is an error now,
-    // not after the whole mapping run.
+    // Before any work: an output that is an input, a file named by -o, or a folder that cannot
+    // be written, is an error now, not after the whole mapping run.
+    let mut inputs: Vec<(&str, &Path)> = Vec::new();
+    if let Some(s) = &saved {
+        inputs.push((s.role_name(), &s.dir));
+    }
+    if let Some(log) = a.log.as_deref().filter(|l| l.is_dir()) {
+        inputs.push(("log", log));
+    }
+    check_output_apart(&a.output, &inputs)?;
     let folder = RunFolder::prepare(&a.output)?;
     let log = match &a.log {
         Some(p) => p.clone(),

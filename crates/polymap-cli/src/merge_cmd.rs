@@ -22,7 +22,7 @@ use polymap_io::atomic::write_bytes_atomic;
 use polymap_io::map_json::{MapJson, read_map_json, write_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_io::tum::read_tum;
-use polymap_pipeline::folder::RunFolder;
+use polymap_pipeline::folder::{RunFolder, check_output_apart};
 use serde_json::json;
 
 use crate::args::MergeArgs;
@@ -48,7 +48,7 @@ struct Input {
 
 pub fn run(a: &MergeArgs) -> Result<()> {
     let (map_a, map_b) = (read_input(&a.a)?, read_input(&a.b)?);
-    check_output_apart(&a.output, &[&map_a.dir, &map_b.dir])?;
+    check_output_apart(&a.output, &[("map A", &map_a.dir), ("map B", &map_b.dir)])?;
     let folder = RunFolder::prepare(&a.output)?;
     let config = Config::default();
     let params = GlobalParams::default();
@@ -110,23 +110,6 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     )?;
     if !a.quiet {
         summarize(&map_a, &map_b, &found, overlap_a, merged.len(), &a.output);
-    }
-    Ok(())
-}
-
-/// Refuses an output folder that is one of the inputs: the merge would replace (or, refused,
-/// remove) that map's own `map.json`.
-fn check_output_apart(output: &Path, inputs: &[&Path]) -> Result<()> {
-    let Ok(out) = output.canonicalize() else {
-        return Ok(()); // not there yet: not an input folder
-    };
-    for input in inputs {
-        if input.canonicalize().is_ok_and(|i| i == out) {
-            bail!(
-                "{}: the output folder is an input map's folder; name another with -o",
-                shown(output)
-            );
-        }
     }
     Ok(())
 }

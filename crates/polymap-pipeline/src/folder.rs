@@ -71,6 +71,37 @@ pub enum FolderError {
     /// A picture or export could not be written.
     #[error(transparent)]
     Export(#[from] ExportError),
+    /// The output folder is one of the command's inputs, which writing would change.
+    #[error(
+        "{}: the output folder is an input ({what}), which writing there would change; name \
+         another folder with -o",
+        path.display()
+    )]
+    IsAnInput {
+        /// The output folder given.
+        path: PathBuf,
+        /// The input it is (`saved map`, `log`, …).
+        what: String,
+    },
+}
+
+/// Refuses an output folder that is one of `inputs` (each with what it is, e.g. `("saved
+/// map", dir)`), compared after following links: writing the run there would change an input
+/// the command promises to read only. An output that does not exist yet is no input.
+pub fn check_output_apart(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), FolderError> {
+    let Ok(out) = output.canonicalize() else {
+        return Ok(());
+    };
+    match inputs
+        .iter()
+        .find(|(_, input)| input.canonicalize().is_ok_and(|i| i == out))
+    {
+        Some((what, _)) => Err(FolderError::IsAnInput {
+            path: output.to_path_buf(),
+            what: (*what).to_owned(),
+        }),
+        None => Ok(()),
+    }
 }
 
 /// A checked run folder.

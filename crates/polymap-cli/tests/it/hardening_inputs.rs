@@ -13,6 +13,30 @@ fn office_log(dir: &Path) -> PathBuf {
     dir.join("office.clf")
 }
 
+/// The office's first 100 scans mapped into `dir/name`.
+fn office_run(dir: &Path, name: &str) -> (PathBuf, PathBuf) {
+    let log = office_log(dir);
+    let run = dir.join(name);
+    let o = map_quietly(&log, &run, &["--max-scans", "100"]);
+    assert!(o.status.success(), "{}", text(&o));
+    (log, run)
+}
+
+/// Every file of a folder with its bytes, for a before-and-after comparison.
+fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut all: Vec<(String, Vec<u8>)> = fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, fs::read(&p).unwrap())
+        })
+        .collect();
+    all.sort();
+    all
+}
+
 /// Names in a folder that are temporary files of an atomic write.
 fn temporaries(dir: &Path) -> Vec<String> {
     fs::read_dir(dir)
@@ -33,4 +57,34 @@ fn a_folder_in_the_way_of_an_output_fails_the_run_without_a_temporary() {
     assert!(!o.status.success(), "{}", text(&o));
     assert!(text(&o).contains("map.json"), "{}", text(&o));
     assert_eq!(temporaries(&run), Vec::<String>::new());
+}
+
+/// `localize LOG --map S -o S` rewrote the saved map's trajectory, scan count and loop nodes;
+/// `map --resume S -o S` and a rosbag2 folder as its own output are refused the same way,
+/// and nothing in the input folder changes.
+#[test]
+fn an_output_folder_that_is_an_input_is_refused_by_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, saved) = office_run(dir.path(), "saved");
+    let before = contents(&saved);
+    let (l, s) = (log.to_str().unwrap(), saved.to_str().unwrap());
+    let through_link = dir.path().join("link");
+    std::os::unix::fs::symlink(&saved, &through_link).unwrap();
+    let link = through_link.to_str().unwrap();
+    let runs: [&[&str]; 4] = [
+        &["localize", l, "--map", s, "-o", s, "-q"],
+        &["localize", l, "--map", s, "-o", link, "-q"],
+        &["map", l, "--resume", s, "-o", &format!("{s}/."), "-q"],
+        &["merge", s, link, "-o", s, "-q"],
+    ];
+    for args in runs {
+        let o = polymap(args);
+        assert!(!o.status.success(), "{args:?}: {}", text(&o));
+        assert!(
+            text(&o).contains("the output folder is an input"),
+            "{args:?}: {}",
+            text(&o)
+        );
+        assert_eq!(contents(&saved), before, "{args:?} changed the input");
+    }
 }
