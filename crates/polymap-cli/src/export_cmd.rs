@@ -11,7 +11,14 @@ use polymap_io::snapshot::{MapSnapshot, ScanPoints};
 use polymap_io::tum::read_tum;
 use polymap_pipeline::pipeline::reread_scan_points;
 
+use polymap_io::input_file::read_regular_to_string;
+
 use crate::args::ExportArgs;
+
+/// The most a run's `summary.json` may weigh (a run writes a few kB).
+const MAX_SUMMARY_BYTES: u64 = 16 << 20;
+/// The most a run's `history.json` may weigh (its budget keeps a long run near 3 MB).
+const MAX_HISTORY_BYTES: u64 = 256 << 20;
 use crate::quote::quoted;
 
 pub fn run(a: &ExportArgs) -> Result<()> {
@@ -92,7 +99,7 @@ fn rays(a: &ExportArgs, snapshot: &MapSnapshot) -> Result<ScanPoints> {
 /// The log named in the run's summary.json; a run that read standard input has none.
 fn logged_path(run: &Path) -> Result<PathBuf> {
     let path = run.join("summary.json");
-    let text = std::fs::read_to_string(&path)
+    let text = read_regular_to_string(&path, MAX_SUMMARY_BYTES)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     let summary: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
@@ -112,7 +119,7 @@ fn logged_path(run: &Path) -> Result<PathBuf> {
 /// The replay history the run saved.
 pub fn read_history(run: &Path) -> Result<ReportData> {
     let path = run.join("history.json");
-    let text = std::fs::read_to_string(&path)
+    let text = read_regular_to_string(&path, MAX_HISTORY_BYTES)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     serde_json::from_str(&text)
         .with_context(|| format!("{}: not a polymap history", path.display()))

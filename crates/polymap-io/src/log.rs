@@ -35,6 +35,7 @@ impl LogKind {
         if path.as_os_str() == "-" {
             return Ok(LogKind::Carmen);
         }
+        refuse_device(path)?;
         Ok(match sniff(path)? {
             Some(f) => LogKind::Ros(f),
             None if path.is_dir() => {
@@ -57,6 +58,36 @@ impl LogKind {
             LogKind::Ros(RosFormat::Sqlite) => "rosbag2 sqlite3 file",
             LogKind::Ros(RosFormat::Folder) => "rosbag2 folder",
         }
+    }
+}
+
+/// Refuses a device or a socket named as the log (`/dev/zero` never ends): a log is a file, a
+/// folder, or a stream through a pipe (`-`, or a FIFO such as a shell's `<(…)`).
+fn refuse_device(path: &Path) -> Result<(), LogError> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let Ok(t) = std::fs::metadata(path).map(|m| m.file_type()) else {
+            return Ok(()); // opening it names the problem
+        };
+        let what = match () {
+            _ if t.is_char_device() => "a character device",
+            _ if t.is_block_device() => "a block device",
+            _ if t.is_socket() => "a socket",
+            _ => return Ok(()),
+        };
+        Err(LogError::Carmen(CarmenError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("{what}, not a log file: to map a stream, pipe it to standard input (`-`)"),
+            ),
+        }))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        Ok(())
     }
 }
 

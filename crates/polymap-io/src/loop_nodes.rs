@@ -35,7 +35,8 @@ use polymap::loops::SavedNode;
 use serde::{Deserialize, Serialize};
 
 use crate::map_json::{
-    MapJsonError, UNITS_METRES, check_version, io_error, json_error, read_text, write_file,
+    MapJsonError, UNITS_METRES, check_version, io_error, json_error, open_saved, read_text,
+    write_file,
 };
 
 /// The file's name in a run folder.
@@ -109,8 +110,7 @@ pub fn write_loop_nodes_to(
 /// Reads a `loop_nodes.json` file.
 pub fn read_loop_nodes(path: impl AsRef<Path>) -> Result<Vec<SavedNode>, MapJsonError> {
     let path = path.as_ref();
-    let file = std::fs::File::open(path).map_err(io_error(path))?;
-    read_loop_nodes_from(std::io::BufReader::new(file), path)
+    read_loop_nodes_from(open_saved(path)?, path)
 }
 
 /// Reads a `loop_nodes.json` document from `input`; `path` names it in errors.

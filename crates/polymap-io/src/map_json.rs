@@ -282,11 +282,31 @@ pub(crate) fn io_error(path: &Path) -> impl Fn(std::io::Error) -> MapJsonError +
     }
 }
 
-/// The whole of `input` as text; I/O errors name `path`.
-pub(crate) fn read_text(mut input: impl Read, path: &Path) -> Result<String, MapJsonError> {
+/// The most a saved map file (`map.json`, `loop_nodes.json`) may weigh, bytes: room for
+/// [`MAX_SEGMENTS`] segments with their observations.
+pub const MAX_FILE_BYTES: u64 = 256 << 20;
+
+/// The whole of `input` as text, at most [`MAX_FILE_BYTES`]; I/O errors name `path`.
+pub(crate) fn read_text(input: impl Read, path: &Path) -> Result<String, MapJsonError> {
     let mut text = String::new();
-    input.read_to_string(&mut text).map_err(io_error(path))?;
+    input
+        .take(MAX_FILE_BYTES + 1)
+        .read_to_string(&mut text)
+        .map_err(io_error(path))?;
+    if text.len() as u64 > MAX_FILE_BYTES {
+        return Err(io_error(path)(std::io::Error::new(
+            std::io::ErrorKind::FileTooLarge,
+            format!("more than the {MAX_FILE_BYTES} bytes a saved map file may hold"),
+        )));
+    }
     Ok(text)
+}
+
+/// Opens a saved map file for reading: a regular file (not a device, a FIFO or a folder) of
+/// at most [`MAX_FILE_BYTES`]; I/O errors name `path`.
+pub(crate) fn open_saved(path: &Path) -> Result<BufReader<File>, MapJsonError> {
+    let file = crate::input_file::open_regular(path).map_err(io_error(path))?;
+    Ok(BufReader::new(file))
 }
 
 /// Writes `map` to `out`, one segment or polyline per line; `path` names it in errors.
@@ -337,8 +357,7 @@ fn push_lines<T: Serialize>(text: &mut String, items: &[T]) -> Result<(), serde_
 /// Reads and validates a `map.json` file.
 pub fn read_map_json(path: impl AsRef<Path>) -> Result<MapJson, MapJsonError> {
     let path = path.as_ref();
-    let file = File::open(path).map_err(io_error(path))?;
-    read_map_json_from(BufReader::new(file), path)
+    read_map_json_from(open_saved(path)?, path)
 }
 
 /// Reads and validates a `map.json` document from `input`; `path` names it in errors.
@@ -527,6 +546,20 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
+    }
+
+    /// A `map.json` that was a link to `/dev/zero` was read until memory ran out.
+    #[cfg(unix)]
+    #[test]
+    fn a_map_that_is_a_device_or_endless_is_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("map.json");
+        std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        let e = read_map_json(&path).unwrap_err();
+        assert!(e.to_string().contains("a character device"), "{e}");
+        let endless = std::io::repeat(b' ');
+        let e = read_map_json_from(endless, "map.json").unwrap_err();
+        assert!(e.to_string().contains("more than the"), "{e}");
     }
 
     #[test]

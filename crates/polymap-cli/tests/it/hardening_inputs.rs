@@ -88,3 +88,71 @@ fn an_output_folder_that_is_an_input_is_refused_by_every_command() {
         assert_eq!(contents(&saved), before, "{args:?} changed the input");
     }
 }
+
+/// Runs polymap with standard input from `stdin`, and how long it took.
+fn polymap_with_stdin(args: &[&str], stdin: &Path) -> (std::process::Output, f64) {
+    let started = std::time::Instant::now();
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_polymap"))
+        .args(args)
+        .stdin(fs::File::open(stdin).unwrap())
+        .output()
+        .expect("the polymap binary runs");
+    (o, started.elapsed().as_secs_f64())
+}
+
+/// `polymap map /dev/zero` (and standard input from it) spun forever; `--config /dev/zero`
+/// was read until memory ran out. Each now ends at once with an error saying what the input
+/// is; a log on standard input still maps.
+#[cfg(unix)]
+#[test]
+fn endless_inputs_are_refused_and_stdin_still_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = office_log(dir.path());
+    let out = dir.path().join("out");
+    let o = o_str(&out);
+    let null = Path::new("/dev/null");
+    let cases: [(&[&str], &Path, &str); 3] = [
+        (
+            &["map", "/dev/zero", "-o", o, "-q"],
+            null,
+            "a character device, not a log file",
+        ),
+        (
+            &["map", "-", "-o", o, "-q"],
+            Path::new("/dev/zero"),
+            "longer than",
+        ),
+        (
+            &["map", "-", "-o", o, "-q", "--skip-bad-input"],
+            Path::new("/dev/zero"),
+            "without an end: not a text log",
+        ),
+    ];
+    for (args, stdin, message) in cases {
+        let (o, seconds) = polymap_with_stdin(args, stdin);
+        assert!(!o.status.success(), "{args:?}: {}", text(&o));
+        assert!(text(&o).contains(message), "{args:?}: {}", text(&o));
+        assert!(seconds < 10.0, "{args:?} took {seconds} s");
+    }
+    let config = polymap(&["map", o_str(&log), "-o", o, "-q", "--config", "/dev/zero"]);
+    assert!(!config.status.success());
+    assert!(
+        text(&config).contains("/dev/zero: cannot read: a character device"),
+        "{}",
+        text(&config)
+    );
+    let args = ["map", "-", "-o", o, "-q", "--max-scans", "30"];
+    let (stdin, _) = polymap_with_stdin(&args, &log);
+    assert!(stdin.status.success(), "{}", text(&stdin));
+    assert_eq!(
+        fs::read_to_string(out.join("trajectory.tum"))
+            .unwrap()
+            .lines()
+            .count(),
+        30
+    );
+}
+
+fn o_str(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
