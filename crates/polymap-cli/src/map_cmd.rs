@@ -15,7 +15,7 @@ use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
 use polymap_export::formats::Format;
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
-use polymap_io::log::{LogOptions, LogSource};
+use polymap_io::log::{LogOptions, LogSource, LogStats};
 use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
@@ -167,8 +167,9 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (mut record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
-    check_not_empty(&log_name, &record, stats.as_ref())?;
+    let (mut record, counts) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
+    check_not_empty(&log_name, &record, counts.as_ref().map(|c| &c.1))?;
+    let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
     let warn_above = config.observe.warn_seen_through_above;
     record.history.map_consistency = record
@@ -281,7 +282,7 @@ fn map_source(
     folder: &RunFolder,
     stop: Arc<AtomicBool>,
     saved: Option<&SavedMap>,
-) -> Result<(RunRecord, Option<CarmenStats>)> {
+) -> Result<(RunRecord, Option<(CarmenStats, LogStats)>)> {
     let bar = progress_bar(a.quiet, source.size_bytes());
     let mut diag = match a.diagnostics {
         true => Some(DiagnosticsWriter::create(
@@ -337,8 +338,8 @@ fn map_source(
     if let Some(w) = diag {
         w.finish()?;
     }
-    let stats = outcome.source.map(|s| s.carmen_stats());
-    Ok((outcome.record, stats))
+    let counts = outcome.source.map(|s| (s.carmen_stats(), s.stats()));
+    Ok((outcome.record, counts))
 }
 
 /// The final map, trajectory and (with `--svg-points`) points for the pictures.
@@ -405,25 +406,36 @@ fn reader_json(s: &CarmenStats) -> serde_json::Value {
     })
 }
 
-/// A log without a single scan is the wrong file or format, not an empty map; a log whose
-/// scans hold no valid return maps to nothing, which deserves a warning.
-fn check_not_empty(log: &str, run: &RunRecord, stats: Option<&CarmenStats>) -> Result<()> {
+/// A log without a single scan is the wrong file or format, not an empty map (what a scan is
+/// and what was read are named in the log's own terms: lines of a CARMEN log, messages of a ROS
+/// recording, with the bad ones skipped); a log whose scans hold no valid return maps to
+/// nothing, which deserves a warning.
+fn check_not_empty(log: &str, run: &RunRecord, stats: Option<&LogStats>) -> Result<()> {
     if run.trajectory.is_empty() && !run.interrupted {
         let s = stats.cloned().unwrap_or_default();
         let others: Vec<String> = s
-            .skipped_types
+            .skipped
             .iter()
             .map(|(t, n)| format!("{n} {}", quoted(t)))
             .collect();
-        let seen = if others.is_empty() {
-            String::new()
-        } else {
-            format!(" (other lines: {})", others.join(", "))
-        };
+        let mut seen = String::new();
+        if !others.is_empty() {
+            seen = format!(" (other {}: {})", s.record_unit, others.join(", "));
+        }
+        if s.bad_records > 0 {
+            seen.push_str(&format!(
+                "; {} bad {} skipped, first: {}",
+                s.bad_records,
+                s.record_unit,
+                quoted(s.bad_record_errors.first().map_or("", String::as_str))
+            ));
+        }
         anyhow::bail!(
-            "{}: no laser scans (FLASER or ROBOTLASER1 lines) in {} lines{seen}",
+            "{}: no laser scans ({}) in {} {}{seen}",
             quoted(log),
-            s.lines
+            s.scan_source,
+            s.records,
+            s.record_unit
         );
     }
     if run.valid_returns == 0 && !run.trajectory.is_empty() {

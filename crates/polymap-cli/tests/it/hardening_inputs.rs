@@ -156,3 +156,79 @@ fn endless_inputs_are_refused_and_stdin_still_maps() {
 fn o_str(p: &Path) -> &str {
     p.to_str().unwrap()
 }
+
+/// An MCAP file of `n` scans of a 10 m circle on `topic`, in frame `frame`; `step` radians
+/// between beams.
+fn mcap_of(path: &Path, topic: &str, frame: &str, n: usize, step: f32) {
+    use polymap_io::ros::mcap_file::{McapCompression, McapWriter};
+    use polymap_io::ros::{Flavor, LaserScanMsg, RosTime};
+    let mut w = McapWriter::create(path, McapCompression::None).unwrap();
+    let channel = w.add_channel(topic, "sensor_msgs/msg/LaserScan").unwrap();
+    for i in 0..n {
+        let stamp = RosTime {
+            sec: 100 + i as i64,
+            nanosec: 0,
+        };
+        let msg = LaserScanMsg {
+            stamp,
+            frame_id: frame.into(),
+            angle_min: 0.0,
+            angle_max: step * 359.0,
+            angle_increment: step,
+            time_increment: 0.0,
+            scan_time: 0.0,
+            range_min: 0.0,
+            range_max: 20.0,
+            ranges: vec![10.0; 360],
+            intensity_count: 0,
+        };
+        w.write(channel, stamp, &msg.encode(Flavor::CdrLittle, 0))
+            .unwrap();
+    }
+    w.finish().unwrap();
+}
+
+/// `polymap info` printed raw escape bytes from topic and frame names.
+#[test]
+fn info_escapes_topic_and_frame_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("odd.mcap");
+    mcap_of(&path, "/scan\x1b[2J", "laser\x1b]0;x\x07", 3, 0.0175);
+    let o = polymap(&["info", path.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(!out.contains('\x1b') && !out.contains('\x07'), "{out:?}");
+    assert!(out.contains("/scan\\x1b[2J"), "{out}");
+}
+
+/// A LaserScan whose beams span 361 rad mapped to an empty map with exit 0; a ROS file cut
+/// inside its header, or one whose every scan is bad under `--skip-bad-input`, was reported
+/// as a CARMEN log without FLASER lines.
+#[test]
+fn impossible_scans_and_cut_recordings_are_named_for_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let wide = dir.path().join("wide.mcap");
+    mcap_of(&wide, "/scan", "laser", 5, 361.0 / 359.0);
+    let out = dir.path().join("out");
+    let o = map_quietly(&wide, &out, &[]);
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains("more than a full turn"), "{}", text(&o));
+    let o = map_quietly(&wide, &out, &["--skip-bad-input"]);
+    assert!(!o.status.success(), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("no laser scans (LaserScan messages on /scan) in 5 messages")
+            && err.contains("5 bad messages skipped")
+            && !err.contains("FLASER"),
+        "{err}"
+    );
+    let cut = dir.path().join("cut.mcap");
+    fs::write(&cut, &fs::read(&wide).unwrap()[..6]).unwrap();
+    let o = map_quietly(&cut, &out, &[]);
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("an MCAP file cut off: the file is 6 bytes"),
+        "{}",
+        text(&o)
+    );
+}
