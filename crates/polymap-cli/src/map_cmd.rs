@@ -34,6 +34,14 @@ use crate::sim_cmd::simulate_to;
 /// At most this many scan points are drawn in the pictures.
 const MAX_PICTURE_POINTS: usize = 200_000;
 
+/// The largest bounding box, square metres, of a saved map that `--resume` and `localize`
+/// search for the log's start without `--initial-pose`. Each scan until the start is found
+/// costs a search over the whole box: measured on the simulated office's map tiled 2 × 2
+/// (3,400 m²) and 3 × 3 (8,000 m²), where no start is ever certain, 12 s and 26 s for the 50
+/// scans searched; a map of 100,000 m² took minutes. The real maps mapped here are smaller:
+/// Intel 1,100 m², ACES 3,000 m², FR079 650 m².
+const MAX_SEARCH_AREA_M2: f64 = 5_000.0;
+
 /// A saved map a run starts from: `--resume DIR` or `localize --map DIR`.
 struct SavedMap {
     dir: PathBuf,
@@ -76,6 +84,29 @@ impl SavedMap {
             nodes,
             role,
         })
+    }
+
+    /// Refuses a map too large for a search without `--initial-pose` to place the log within
+    /// seconds: the search covers the map's whole bounding box, its cost grows with that area.
+    fn check_searchable(&self) -> Result<()> {
+        let ends = self.map.segments.iter().flat_map(|s| [s.start, s.end]);
+        let (lo, hi) = ends.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        });
+        let area_m2 = (hi[0] - lo[0]).max(0.0) * (hi[1] - lo[1]).max(0.0);
+        anyhow::ensure!(
+            area_m2 <= MAX_SEARCH_AREA_M2,
+            "{}: the map covers {:.0} m × {:.0} m, more than the {MAX_SEARCH_AREA_M2} m² a search \
+             for the log's start covers within seconds: give --initial-pose x,y,yaw (metres, \
+             metres, radians) where the log starts",
+            quoted(&self.dir.display().to_string()),
+            hi[0] - lo[0],
+            hi[1] - lo[1]
+        );
+        Ok(())
     }
 
     /// What the saved map is to the run, for messages.
@@ -137,6 +168,9 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     if a.print_config {
         say_raw!("{}", to_toml(&config)?);
         return Ok(());
+    }
+    if let Some(s) = saved.as_ref().filter(|_| a.initial_pose.is_none()) {
+        s.check_searchable()?;
     }
     // Before any work: an output that is an input, a file named by -o, or a folder that cannot
     // be written, is an error now, not after the whole mapping run.
@@ -304,7 +338,7 @@ fn map_source(
     // that is not after `tracking.start_search_scans` scans stops, rather than map on blind.
     let mut placed = saved.is_none() || a.initial_pose.is_some();
     let search_scans = config.tracking.start_search_scans as usize;
-    let outcome = pipeline::run(source, config, &options, |e: &ScanEvent<'_>| {
+    let outcome = pipeline::run(source, config, options, |e: &ScanEvent<'_>| {
         if let Some(w) = diag.as_mut() {
             w.write(&e.stamp.text, e.update)?;
         }

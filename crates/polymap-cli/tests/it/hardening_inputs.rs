@@ -232,3 +232,90 @@ fn impossible_scans_and_cut_recordings_are_named_for_what_they_are() {
         text(&o)
     );
 }
+
+/// The office's map tiled `k` × `k` (its copies 40 m apart), as a saved map in `dir`.
+fn tiled_map(from: &Path, dir: &Path, k: usize) {
+    let map: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(from.join("map.json")).unwrap()).unwrap();
+    let mut segments = Vec::new();
+    for i in 0..k * k {
+        let (dx, dy) = (40.0 * (i % k) as f64, 40.0 * (i / k) as f64);
+        for s in map["segments"].as_array().unwrap() {
+            let mut s = s.clone();
+            for end in ["start", "end"] {
+                let p = s[end].as_array().unwrap();
+                let (x, y) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+                s[end] = serde_json::json!([x + dx, y + dy]);
+            }
+            segments.push(s);
+        }
+    }
+    let mut tiled = map.clone();
+    tiled["segments"] = serde_json::Value::Array(segments);
+    tiled["polylines"] = serde_json::json!([]);
+    fs::create_dir_all(dir).unwrap();
+    fs::write(dir.join("map.json"), tiled.to_string()).unwrap();
+}
+
+/// A saved map is input like any other: one wall from (1e6, 1e6) to (-1e6, -1e6) made
+/// `--resume`, `localize`, `eval map` and `merge` run for minutes, coordinates times 1e298
+/// ended `merge` in a 16 GB allocation. Each command now refuses the file at once, naming it
+/// and the segment; a map too wide to search for the log's start without `--initial-pose`
+/// is refused with the limit, and maps with one.
+#[test]
+fn saved_maps_beyond_the_bounds_are_refused_within_seconds() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, saved) = office_run(dir.path(), "saved");
+    let json = fs::read_to_string(saved.join("map.json")).unwrap();
+    let first = json.find("\"start\":[").unwrap();
+    let cut = json.find("\"born_scan\"").unwrap();
+    let wall = "\"start\":[1000000.0,1000000.0],\"end\":[-1000000.0,-1000000.0],";
+    let hostile = dir.path().join("hostile");
+    fs::create_dir_all(&hostile).unwrap();
+    fs::write(
+        hostile.join("map.json"),
+        format!("{}{wall}{}", &json[..first], &json[cut..]),
+    )
+    .unwrap();
+    let (l, h, s) = (o_str(&log), o_str(&hostile), o_str(&saved));
+    let out = dir.path().join("out");
+    let o = o_str(&out);
+    let runs: [&[&str]; 4] = [
+        &["map", l, "--resume", h, "-o", o, "-q"],
+        &["localize", l, "--map", h, "-o", o, "-q"],
+        &["eval", "map", h],
+        &["merge", s, h, "-o", o, "-q"],
+    ];
+    for args in runs {
+        let started = std::time::Instant::now();
+        let run = polymap(args);
+        assert!(!run.status.success(), "{args:?}: {}", text(&run));
+        assert!(
+            text(&run).contains("map.json: segment 0 is 2828427.1 m long"),
+            "{args:?}: {}",
+            text(&run)
+        );
+        assert!(started.elapsed().as_secs_f64() < 10.0, "{args:?}");
+    }
+    let wide = dir.path().join("wide");
+    tiled_map(&saved, &wide, 3);
+    let started = std::time::Instant::now();
+    let run = polymap(&["localize", l, "--map", o_str(&wide), "-o", o, "-q"]);
+    assert!(!run.status.success(), "{}", text(&run));
+    assert!(
+        text(&run).contains("5000 m² a search for the log's start")
+            && text(&run).contains("--initial-pose"),
+        "{}",
+        text(&run)
+    );
+    assert!(started.elapsed().as_secs_f64() < 10.0);
+    let args = ["--max-scans", "20", "--initial-pose", "0,0,0"];
+    let run = polymap(
+        &[
+            &["localize", l, "--map", o_str(&wide), "-o", o, "-q"][..],
+            &args,
+        ]
+        .concat(),
+    );
+    assert!(run.status.success(), "{}", text(&run));
+}
