@@ -25,6 +25,9 @@ pub fn run(a: &InfoArgs) -> Result<()> {
             let mut source = open_source(&a.log, format, ReadLimits::default(), false)?;
             let topics = survey(source.as_mut())?;
             ros_info(&topics);
+            for w in source.warnings() {
+                say!("warning: {}", quoted(w));
+            }
             Ok(())
         }
     }

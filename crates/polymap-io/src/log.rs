@@ -154,6 +154,8 @@ pub struct LogStats {
     pub odometry_dropped: Option<String>,
     /// ROS without odometry: witnessing odometry messages that did not decode, skipped.
     pub odometry_bad_messages: u64,
+    /// What the reader read past, for the user (a recording cut off, and where it ends).
+    pub warnings: Vec<String>,
 }
 
 enum Inner {
@@ -261,6 +263,7 @@ impl LogSource {
                     scans_outside_odometry: 0,
                     odometry_dropped: None,
                     odometry_bad_messages: 0,
+                    warnings: Vec::new(),
                 }
             }
             Inner::Ros(r) => {
@@ -279,6 +282,7 @@ impl LogSource {
                     scans_outside_odometry: s.scans_outside_odometry,
                     odometry_dropped: s.odometry_dropped,
                     odometry_bad_messages: s.odometry_bad_messages,
+                    warnings: s.warnings,
                 }
             }
         }
@@ -302,9 +306,11 @@ impl LogSource {
                     no_return_readings: s.no_return_readings,
                     valid_readings: s.valid_readings,
                     other_warnings: s
-                        .odometry_dropped
-                        .map(|e| format!("no odometry witnesses the steps (from then on): {e}"))
+                        .warnings
                         .into_iter()
+                        .chain(s.odometry_dropped.map(|e| {
+                            format!("no odometry witnesses the steps (from then on): {e}")
+                        }))
                         .chain((s.odometry_bad_messages > 0).then(|| {
                             format!(
                                 "{} odometry message(s) did not decode and were skipped; the \

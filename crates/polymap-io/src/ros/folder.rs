@@ -121,6 +121,7 @@ pub(crate) struct Chain {
     connections: Vec<Connection>,
     position_before: u64,
     skipped: (u64, Vec<String>),
+    warnings: Vec<String>,
 }
 
 impl Chain {
@@ -134,6 +135,7 @@ impl Chain {
             connections: Vec::new(),
             position_before: 0,
             skipped: (0, Vec::new()),
+            warnings: Vec::new(),
         };
         chain.open_next()?;
         Ok(chain)
@@ -146,6 +148,7 @@ impl Chain {
             let (n, msgs) = old.skipped();
             self.skipped.0 += n;
             self.skipped.1.extend(msgs.iter().cloned());
+            self.warnings.extend(old.warnings().iter().cloned());
         }
         let Some(path) = self.parts.get(self.next_part).cloned() else {
             return Ok(false);
@@ -218,6 +221,11 @@ impl MessageSource for Chain {
     fn skipped(&self) -> (u64, &[String]) {
         let extra = self.current.as_ref().map_or(0, |c| c.skipped().0);
         (self.skipped.0 + extra, &self.skipped.1)
+    }
+
+    fn warnings(&self) -> &[String] {
+        // Those of the parts read; the current part's are taken in when the next opens.
+        &self.warnings
     }
 }
 

@@ -20,6 +20,7 @@
 
 pub mod error;
 pub mod folder;
+pub(crate) mod mcap_chunk;
 pub mod mcap_file;
 pub mod mcap_indexed;
 pub mod messages;
@@ -66,7 +67,9 @@ pub fn open_source(
 ) -> Result<Box<dyn MessageSource>, RosError> {
     match format {
         RosFormat::Bag1 => Ok(Box::new(ros1::BagReader::open(path, limits, skip_bad)?)),
-        RosFormat::Mcap => Ok(Box::new(mcap_file::McapReader::open(path, limits)?)),
+        RosFormat::Mcap => Ok(Box::new(mcap_file::McapReader::open(
+            path, limits, skip_bad,
+        )?)),
         RosFormat::Sqlite => open_sqlite(path, limits),
         RosFormat::Folder => {
             let parts = folder::folder_files(path)?;
@@ -93,7 +96,7 @@ pub fn open_source_for_topics(
     topics: &[String],
 ) -> Result<Box<dyn MessageSource>, RosError> {
     if format == RosFormat::Mcap
-        && let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, topics)?
+        && let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, skip_bad, topics)?
     {
         return Ok(Box::new(reader));
     }
