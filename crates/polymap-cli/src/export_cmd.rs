@@ -9,6 +9,7 @@ use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::map_json::read_map_json;
 use polymap_io::snapshot::{MapSnapshot, ScanPoints};
 use polymap_io::tum::read_tum;
+use polymap_pipeline::manifest::{FolderLock, manifest_of, read_manifest, write_manifest};
 use polymap_pipeline::pipeline::reread_scan_points;
 
 use polymap_io::input_file::read_regular_to_string;
@@ -22,6 +23,10 @@ const MAX_HISTORY_BYTES: u64 = 256 << 20;
 use crate::quote::quoted;
 
 pub fn run(a: &ExportArgs) -> Result<()> {
+    let read = ["map.json", "trajectory.tum", "summary.json", "history.json"];
+    crate::outputs::check_run_folder(&a.run, &read)?;
+    // Held while the exports are written: no run may write the folder meanwhile.
+    let _lock = FolderLock::exclusive(&a.run)?;
     let map = read_map_json(a.run.join("map.json"))?;
     let trajectory = read_tum(a.run.join("trajectory.tum"))?;
     let snapshot = MapSnapshot::from_files(&map, trajectory);
@@ -40,9 +45,27 @@ pub fn run(a: &ExportArgs) -> Result<()> {
         history: history.as_ref(),
         resolution_m: a.resolution,
     };
-    for path in export(&a.format, &input)? {
+    let written = export(&a.format, &input)?;
+    add_to_manifest(&a.run, &written)?;
+    for path in written {
         say!("wrote {}", path.display());
     }
+    Ok(())
+}
+
+/// Lists the exports `written` in the run's manifest beside its files (a folder without a
+/// manifest stays without one: its files were never checked to be one run's).
+fn add_to_manifest(run: &Path, written: &[PathBuf]) -> Result<()> {
+    let Some(manifest) = read_manifest(run)? else {
+        return Ok(());
+    };
+    let names: Vec<String> = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .chain(manifest.files.keys().cloned())
+        .collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    write_manifest(run, &manifest_of(run, &manifest.run, &names)?)?;
     Ok(())
 }
 

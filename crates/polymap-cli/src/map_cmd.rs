@@ -53,6 +53,7 @@ struct SavedMap {
 
 impl SavedMap {
     fn read(dir: &Path, role: MapRole) -> Result<SavedMap> {
+        crate::outputs::check_run_folder(dir, &["map.json", LOOP_NODES_FILE])?;
         let map = read_map_json(dir.join("map.json")).with_context(|| {
             format!(
                 "cannot read the saved map in {}",
@@ -369,6 +370,9 @@ fn map_source(
         Ok(())
     })?;
     bar.finish_and_clear();
+    // The write phase starts here: from now on the folder is not one run's until the manifest
+    // says so.
+    folder.begin_writing()?;
     if let Some(w) = diag {
         w.finish()?;
     }

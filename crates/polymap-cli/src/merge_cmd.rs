@@ -63,6 +63,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     };
     let found = global_match(&fixed, &map_a.path, &moving, &params, &config.align);
     let search_s = started.elapsed().as_secs_f64();
+    folder.begin_writing()?;
     let Some(found) = found else {
         remove_stale(folder.path())?;
         let report = json!({
@@ -73,6 +74,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
             "segments": {"a": map_a.segments.len(), "b": map_b.segments.len()},
         });
         write_json(&folder.path().join("merge.json"), &report)?;
+        folder.finish_writing(&["merge.json"])?;
         bail!(
             "{} and {} do not overlap: no corner of B (two non-parallel walls meeting) matches a \
              corner of A in angle, so there is no pose to try: not merged (see merge.json)",
@@ -87,6 +89,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     if verdict != MatchVerdict::Accepted {
         remove_stale(folder.path())?;
         write_json(&folder.path().join("merge.json"), &report)?;
+        folder.finish_writing(&["merge.json"])?;
         bail!("{}", refusal(&map_a, &map_b, &found, verdict, &params));
     }
     let started = Instant::now();
@@ -108,6 +111,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
         &polylines,
         &report,
     )?;
+    folder.finish_writing(&["map.json", "merge.json", "map.svg"])?;
     if !a.quiet {
         summarize(&map_a, &map_b, &found, overlap_a, merged.len(), &a.output);
     }
@@ -120,6 +124,7 @@ fn read_input(dir: &Path) -> Result<Input> {
     if !dir.is_dir() {
         bail!("{}: not a folder (a polymap map output)", shown(dir));
     }
+    crate::outputs::check_run_folder(dir, &["map.json", "trajectory.tum"])?;
     let map = read_map_json(dir.join("map.json"))?;
     let segments = map.map_segments();
     if segments.is_empty() {

@@ -319,3 +319,100 @@ fn saved_maps_beyond_the_bounds_are_refused_within_seconds() {
     );
     assert!(run.status.success(), "{}", text(&run));
 }
+
+/// Runs polymap with an environment variable set.
+fn polymap_with_env(args: &[&str], key: &str, value: &str) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_polymap"))
+        .args(args)
+        .env(key, value)
+        .output()
+        .expect("the polymap binary runs")
+}
+
+/// A run folder could mix two runs: a kill in the write phase left the new map.json beside the
+/// old summary.json and loop_nodes.json, and --resume took it; after a full disk, `export`
+/// built a report from the earlier run's history.json; two runs writing one folder both
+/// succeeded. The manifest, written last, and the folder's lock now tie the files together.
+#[test]
+fn a_run_folder_mixing_two_runs_is_refused_and_a_folder_is_written_by_one_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let (log, run) = office_run(dir.path(), "run");
+    let (l, r) = (o_str(&log), o_str(&run));
+    let other = dir.path().join("other");
+    let manifest: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(run.join("manifest.json")).unwrap()).unwrap();
+    assert_eq!(manifest["complete"], true, "{manifest}");
+    assert!(manifest["files"]["loop_nodes.json"]["crc32"].is_string());
+    let readers = |what: &str| {
+        let out = o_str(&other);
+        let runs: [&[&str]; 4] = [
+            &[
+                "map",
+                l,
+                "--resume",
+                r,
+                "-o",
+                out,
+                "-q",
+                "--max-scans",
+                "10",
+            ],
+            &[
+                "localize",
+                l,
+                "--map",
+                r,
+                "-o",
+                out,
+                "-q",
+                "--max-scans",
+                "10",
+            ],
+            &["merge", r, r, "-o", out, "-q"],
+            &["export", r, "--format", "html"],
+        ];
+        for args in runs {
+            let o = polymap(args);
+            assert!(!o.status.success(), "{args:?}: {}", text(&o));
+            assert!(text(&o).contains(what), "{args:?}: {}", text(&o));
+        }
+    };
+    // Killed while writing summary.json: map.json and trajectory.tum are the new run's.
+    let args = ["map", l, "-o", r, "-q", "--max-scans", "150"];
+    let o = polymap_with_env(&args, "POLYMAP_TEST_FAULT", "summary.json:abort");
+    assert!(!o.status.success());
+    readers("did not finish writing it");
+    // A full disk at history.json: the earlier run's history stays, and is not reported on.
+    let o = polymap_with_env(&args, "POLYMAP_TEST_FAULT", "history.json:enospc");
+    assert!(!o.status.success());
+    readers("did not finish writing it");
+    // A whole run, then another run's loop nodes copied in.
+    let o = map_quietly(&log, &run, &["--max-scans", "150"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let (_, earlier) = office_run(dir.path(), "earlier");
+    fs::copy(earlier.join("loop_nodes.json"), run.join("loop_nodes.json")).unwrap();
+    let o = polymap(&["localize", l, "--map", r, "-o", o_str(&other), "-q"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("loop_nodes.json: not the file run")
+            && text(&o).contains("mixes files of two runs"),
+        "{}",
+        text(&o)
+    );
+    // While a run writes a folder, another is refused before it maps.
+    let lock = polymap_pipeline::manifest::FolderLock::exclusive(&run).unwrap();
+    let o = map_quietly(&log, &run, &["--max-scans", "10"]);
+    assert!(!o.status.success());
+    assert!(
+        text(&o).contains("another polymap run is writing this folder"),
+        "{}",
+        text(&o)
+    );
+    drop(lock);
+    let o = map_quietly(&log, &run, &["--max-scans", "10"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = polymap(&["export", r, "--format", "png"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let manifest = fs::read_to_string(run.join("manifest.json")).unwrap();
+    assert!(manifest.contains("map.png"), "{manifest}");
+}
