@@ -6,6 +6,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, anyhow};
 use polymap::config::{Config, PRESETS};
 use polymap::mapper::MotionPrior;
+use polymap_io::input_file::read_regular_to_string;
+
+/// The most a configuration file may weigh: a full configuration is about 6 kB.
+const MAX_CONFIG_BYTES: u64 = 1 << 20;
 
 /// Builds the configuration from a preset name, the odometry flag laid over it, then the TOML
 /// files in order (a key a file sets always wins), and validates the result.
@@ -30,7 +34,7 @@ pub fn effective_config(preset: &str, files: &[PathBuf], odometry: bool) -> Resu
 
 /// A configuration with a TOML file laid over it: keys the file sets win, the rest stay.
 fn layered(preset: Config, path: &Path) -> Result<Config> {
-    let text = std::fs::read_to_string(path)
+    let text = read_regular_to_string(path, MAX_CONFIG_BYTES)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     let file: toml::Table =
         toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
@@ -74,6 +78,21 @@ mod tests {
         let mine = effective_config("default", &[path], true).unwrap();
         assert_eq!(mine.mapper.motion_prior, MotionPrior::Odometry);
         assert!(mine.mapper.icp_from_best_start_only);
+    }
+
+    /// `--config /dev/zero` was read until memory ran out.
+    #[test]
+    fn a_config_that_is_a_device_or_too_large_is_refused() {
+        let e = effective_config("default", &[PathBuf::from("/dev/zero")], false).unwrap_err();
+        assert!(
+            format!("{e:#}").contains("/dev/zero: cannot read: a character device"),
+            "{e:#}"
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("huge.toml");
+        std::fs::write(&path, vec![b'#'; MAX_CONFIG_BYTES as usize + 1]).unwrap();
+        let e = effective_config("default", &[path], false).unwrap_err();
+        assert!(format!("{e:#}").contains("more than"), "{e:#}");
     }
 
     #[test]

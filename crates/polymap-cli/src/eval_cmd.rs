@@ -127,6 +127,10 @@ pub fn run(a: &EvalArgs) -> Result<()> {
     Ok(())
 }
 
+/// The most a trajectory or relations file told apart by its lines may weigh (a pose line is
+/// about 100 bytes: ten million poses).
+const MAX_TRAJECTORY_BYTES: u64 = 1 << 30;
+
 /// Below this share of relations matched, `eval relations` warns.
 const MIN_RELATION_SHARE: f64 = 0.9;
 
@@ -134,7 +138,8 @@ const MIN_RELATION_SHARE: f64 = 0.9;
 /// in a TUM trajectory (a `.relations` line ends in `z roll pitch yaw`, which is not); `None`
 /// when the file has no such line.
 fn unit_quaternion_share(path: &Path) -> Result<Option<f64>> {
-    let text = std::fs::read(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let text = polymap_io::input_file::read_regular(path, MAX_TRAJECTORY_BYTES)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
     let (mut lines, mut unit) = (0usize, 0usize);
     for line in String::from_utf8_lossy(&text).lines() {
         let v: Vec<f64> = line

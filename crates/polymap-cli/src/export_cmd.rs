@@ -9,12 +9,24 @@ use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::map_json::read_map_json;
 use polymap_io::snapshot::{MapSnapshot, ScanPoints};
 use polymap_io::tum::read_tum;
+use polymap_pipeline::manifest::{FolderLock, manifest_of, read_manifest, write_manifest};
 use polymap_pipeline::pipeline::reread_scan_points;
 
+use polymap_io::input_file::read_regular_to_string;
+
 use crate::args::ExportArgs;
+
+/// The most a run's `summary.json` may weigh (a run writes a few kB).
+const MAX_SUMMARY_BYTES: u64 = 16 << 20;
+/// The most a run's `history.json` may weigh (its budget keeps a long run near 3 MB).
+const MAX_HISTORY_BYTES: u64 = 256 << 20;
 use crate::quote::quoted;
 
 pub fn run(a: &ExportArgs) -> Result<()> {
+    let read = ["map.json", "trajectory.tum", "summary.json", "history.json"];
+    crate::outputs::check_run_folder(&a.run, &read)?;
+    // Held while the exports are written: no run may write the folder meanwhile.
+    let _lock = FolderLock::exclusive(&a.run)?;
     let map = read_map_json(a.run.join("map.json"))?;
     let trajectory = read_tum(a.run.join("trajectory.tum"))?;
     let snapshot = MapSnapshot::from_files(&map, trajectory);
@@ -33,9 +45,27 @@ pub fn run(a: &ExportArgs) -> Result<()> {
         history: history.as_ref(),
         resolution_m: a.resolution,
     };
-    for path in export(&a.format, &input)? {
+    let written = export(&a.format, &input)?;
+    add_to_manifest(&a.run, &written)?;
+    for path in written {
         say!("wrote {}", path.display());
     }
+    Ok(())
+}
+
+/// Lists the exports `written` in the run's manifest beside its files (a folder without a
+/// manifest stays without one: its files were never checked to be one run's).
+fn add_to_manifest(run: &Path, written: &[PathBuf]) -> Result<()> {
+    let Some(manifest) = read_manifest(run)? else {
+        return Ok(());
+    };
+    let names: Vec<String> = written
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .chain(manifest.files.keys().cloned())
+        .collect();
+    let names: Vec<&str> = names.iter().map(String::as_str).collect();
+    write_manifest(run, &manifest_of(run, &manifest.run, &names)?)?;
     Ok(())
 }
 
@@ -92,7 +122,7 @@ fn rays(a: &ExportArgs, snapshot: &MapSnapshot) -> Result<ScanPoints> {
 /// The log named in the run's summary.json; a run that read standard input has none.
 fn logged_path(run: &Path) -> Result<PathBuf> {
     let path = run.join("summary.json");
-    let text = std::fs::read_to_string(&path)
+    let text = read_regular_to_string(&path, MAX_SUMMARY_BYTES)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     let summary: serde_json::Value =
         serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))?;
@@ -112,7 +142,7 @@ fn logged_path(run: &Path) -> Result<PathBuf> {
 /// The replay history the run saved.
 pub fn read_history(run: &Path) -> Result<ReportData> {
     let path = run.join("history.json");
-    let text = std::fs::read_to_string(&path)
+    let text = read_regular_to_string(&path, MAX_HISTORY_BYTES)
         .with_context(|| format!("{}: cannot read", path.display()))?;
     serde_json::from_str(&text)
         .with_context(|| format!("{}: not a polymap history", path.display()))

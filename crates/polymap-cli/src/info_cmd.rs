@@ -9,17 +9,25 @@ use polymap_io::log::LogKind;
 use polymap_io::ros::{ReadLimits, TopicSummary, open_source, survey};
 
 use crate::args::InfoArgs;
+use crate::quote::quoted;
 
 pub fn run(a: &InfoArgs) -> Result<()> {
     let kind = LogKind::of(&a.log)?;
     let size = std::fs::metadata(&a.log).map(|m| m.len()).unwrap_or(0);
-    say!("{}: {} ({size} bytes)", a.log.display(), kind.name());
+    say!(
+        "{}: {} ({size} bytes)",
+        quoted(&a.log.display().to_string()),
+        kind.name()
+    );
     match kind {
         LogKind::Carmen => carmen_info(a),
         LogKind::Ros(format) => {
             let mut source = open_source(&a.log, format, ReadLimits::default(), false)?;
             let topics = survey(source.as_mut())?;
             ros_info(&topics);
+            for w in source.warnings() {
+                say!("warning: {}", quoted(w));
+            }
             Ok(())
         }
     }
@@ -44,9 +52,9 @@ fn ros_info(topics: &[TopicSummary]) {
     for t in topics {
         say!(
             "  {}  {}  {}  {} messages",
-            t.connection.topic,
-            t.connection.type_name,
-            encoding_name(&t.connection.encoding),
+            quoted(&t.connection.topic),
+            quoted(&t.connection.type_name),
+            quoted(&encoding_name(&t.connection.encoding)),
             t.messages
         );
     }
@@ -63,7 +71,7 @@ fn ros_info(topics: &[TopicSummary]) {
     let odom: Vec<String> = topics
         .iter()
         .filter(|t| t.connection.is_odometry())
-        .map(|t| format!("{} ({} messages)", t.connection.topic, t.messages))
+        .map(|t| format!("{} ({} messages)", quoted(&t.connection.topic), t.messages))
         .collect();
     if odom.is_empty() {
         say!("odometry: none (map without --odometry)");
@@ -80,7 +88,7 @@ fn laser_info(t: &TopicSummary) {
     let Some(g) = &t.laser else {
         say!(
             "laser {}: {} messages, none decodable",
-            t.connection.topic,
+            quoted(&t.connection.topic),
             t.messages
         );
         return;
@@ -95,7 +103,7 @@ fn laser_info(t: &TopicSummary) {
     say!(
         "laser {}: {} beams over {:.1}° (step {:.4}°, first beam {:.2}°, last {:.2}°), \
          range {}–{} m, {rate}, frame {}",
-        t.connection.topic,
+        quoted(&t.connection.topic),
         g.beams,
         g.field_of_view_rad().to_degrees(),
         g.angle_increment_rad.to_degrees(),
@@ -103,7 +111,7 @@ fn laser_info(t: &TopicSummary) {
         g.angle_max_rad.to_degrees(),
         g.range_min_m as f32,
         g.range_max_m as f32,
-        g.frame_id
+        quoted(&g.frame_id)
     );
     if let Some((a, b)) = t.stamps {
         say!(
@@ -154,7 +162,7 @@ fn carmen_info(a: &InfoArgs) -> Result<()> {
         s.comment_lines
     );
     for (t, n) in &s.skipped_types {
-        say!("  skipped type {t}: {n} lines");
+        say!("  skipped type {}: {n} lines", quoted(t));
     }
     let Some(scan) = first else {
         say!("laser: no FLASER or ROBOTLASER1 lines");
@@ -192,7 +200,7 @@ fn carmen_info(a: &InfoArgs) -> Result<()> {
     say!("odometry: {odometry}");
     // What the reader found odd (stamps going back, stale odometry, ...), as `map` warns.
     for w in s.warnings() {
-        say!("  {w}");
+        say!("  {}", quoted(&w));
     }
     Ok(())
 }

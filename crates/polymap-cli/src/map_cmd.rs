@@ -15,12 +15,12 @@ use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
 use polymap_export::formats::Format;
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
-use polymap_io::log::{LogOptions, LogSource};
+use polymap_io::log::{LogOptions, LogSource, LogStats};
 use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_pipeline::folder::{
-    DIAGNOSTICS_FILE, RunFiles, RunFolder, percentiles_ms, summary_json,
+    DIAGNOSTICS_FILE, RunFiles, RunFolder, check_output_apart, percentiles_ms, summary_json,
 };
 use polymap_pipeline::pipeline::{self, PipelineOptions, RunRecord, ScanEvent};
 use serde_json::json;
@@ -34,6 +34,14 @@ use crate::sim_cmd::simulate_to;
 /// At most this many scan points are drawn in the pictures.
 const MAX_PICTURE_POINTS: usize = 200_000;
 
+/// The largest bounding box, square metres, of a saved map that `--resume` and `localize`
+/// search for the log's start without `--initial-pose`. Each scan until the start is found
+/// costs a search over the whole box: measured on the simulated office's map tiled 2 × 2
+/// (3,400 m²) and 3 × 3 (8,000 m²), where no start is ever certain, 12 s and 26 s for the 50
+/// scans searched; a map of 100,000 m² took minutes. The real maps mapped here are smaller:
+/// Intel 1,100 m², ACES 3,000 m², FR079 650 m².
+const MAX_SEARCH_AREA_M2: f64 = 5_000.0;
+
 /// A saved map a run starts from: `--resume DIR` or `localize --map DIR`.
 struct SavedMap {
     dir: PathBuf,
@@ -45,6 +53,7 @@ struct SavedMap {
 
 impl SavedMap {
     fn read(dir: &Path, role: MapRole) -> Result<SavedMap> {
+        crate::outputs::check_run_folder(dir, &["map.json", LOOP_NODES_FILE])?;
         let map = read_map_json(dir.join("map.json")).with_context(|| {
             format!(
                 "cannot read the saved map in {}",
@@ -76,6 +85,37 @@ impl SavedMap {
             nodes,
             role,
         })
+    }
+
+    /// Refuses a map too large for a search without `--initial-pose` to place the log within
+    /// seconds: the search covers the map's whole bounding box, its cost grows with that area.
+    fn check_searchable(&self) -> Result<()> {
+        let ends = self.map.segments.iter().flat_map(|s| [s.start, s.end]);
+        let (lo, hi) = ends.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
+            (
+                [lo[0].min(p[0]), lo[1].min(p[1])],
+                [hi[0].max(p[0]), hi[1].max(p[1])],
+            )
+        });
+        let area_m2 = (hi[0] - lo[0]).max(0.0) * (hi[1] - lo[1]).max(0.0);
+        anyhow::ensure!(
+            area_m2 <= MAX_SEARCH_AREA_M2,
+            "{}: the map covers {:.0} m × {:.0} m, more than the {MAX_SEARCH_AREA_M2} m² a search \
+             for the log's start covers within seconds: give --initial-pose x,y,yaw (metres, \
+             metres, radians) where the log starts",
+            quoted(&self.dir.display().to_string()),
+            hi[0] - lo[0],
+            hi[1] - lo[1]
+        );
+        Ok(())
+    }
+
+    /// What the saved map is to the run, for messages.
+    fn role_name(&self) -> &'static str {
+        match self.role {
+            MapRole::Localize => "map to localize in (--map)",
+            MapRole::Build => "map to resume (--resume)",
+        }
     }
 
     fn mapper(&self, config: &Config, start: Option<Pose2>) -> Mapper {
@@ -130,8 +170,19 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         say_raw!("{}", to_toml(&config)?);
         return Ok(());
     }
-    // Before any work: a file named by -o, or a folder that cannot be written, is an error
-    // here, not after the whole mapping run.
+    if let Some(s) = saved.as_ref().filter(|_| a.initial_pose.is_none()) {
+        s.check_searchable()?;
+    }
+    // Before any work: an output that is an input, a file named by -o, or a folder that cannot
+    // be written, is an error now, not after the whole mapping run.
+    let mut inputs: Vec<(&str, &Path)> = Vec::new();
+    if let Some(s) = &saved {
+        inputs.push((s.role_name(), &s.dir));
+    }
+    if let Some(log) = a.log.as_deref().filter(|l| l.is_dir()) {
+        inputs.push(("log", log));
+    }
+    check_output_apart(&a.output, &inputs)?;
     let folder = RunFolder::prepare(&a.output)?;
     let log = match &a.log {
         Some(p) => p.clone(),
@@ -151,8 +202,9 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (mut record, stats) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
-    check_not_empty(&log_name, &record, stats.as_ref())?;
+    let (mut record, counts) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
+    check_not_empty(&log_name, &record, counts.as_ref().map(|c| &c.1))?;
+    let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
     let warn_above = config.observe.warn_seen_through_above;
     record.history.map_consistency = record
@@ -265,7 +317,7 @@ fn map_source(
     folder: &RunFolder,
     stop: Arc<AtomicBool>,
     saved: Option<&SavedMap>,
-) -> Result<(RunRecord, Option<CarmenStats>)> {
+) -> Result<(RunRecord, Option<(CarmenStats, LogStats)>)> {
     let bar = progress_bar(a.quiet, source.size_bytes());
     let mut diag = match a.diagnostics {
         true => Some(DiagnosticsWriter::create(
@@ -287,7 +339,7 @@ fn map_source(
     // that is not after `tracking.start_search_scans` scans stops, rather than map on blind.
     let mut placed = saved.is_none() || a.initial_pose.is_some();
     let search_scans = config.tracking.start_search_scans as usize;
-    let outcome = pipeline::run(source, config, &options, |e: &ScanEvent<'_>| {
+    let outcome = pipeline::run(source, config, options, |e: &ScanEvent<'_>| {
         if let Some(w) = diag.as_mut() {
             w.write(&e.stamp.text, e.update)?;
         }
@@ -318,11 +370,14 @@ fn map_source(
         Ok(())
     })?;
     bar.finish_and_clear();
+    // The write phase starts here: from now on the folder is not one run's until the manifest
+    // says so.
+    folder.begin_writing()?;
     if let Some(w) = diag {
         w.finish()?;
     }
-    let stats = outcome.source.map(|s| s.carmen_stats());
-    Ok((outcome.record, stats))
+    let counts = outcome.source.map(|s| (s.carmen_stats(), s.stats()));
+    Ok((outcome.record, counts))
 }
 
 /// The final map, trajectory and (with `--svg-points`) points for the pictures.
@@ -389,25 +444,36 @@ fn reader_json(s: &CarmenStats) -> serde_json::Value {
     })
 }
 
-/// A log without a single scan is the wrong file or format, not an empty map; a log whose
-/// scans hold no valid return maps to nothing, which deserves a warning.
-fn check_not_empty(log: &str, run: &RunRecord, stats: Option<&CarmenStats>) -> Result<()> {
+/// A log without a single scan is the wrong file or format, not an empty map (what a scan is
+/// and what was read are named in the log's own terms: lines of a CARMEN log, messages of a ROS
+/// recording, with the bad ones skipped); a log whose scans hold no valid return maps to
+/// nothing, which deserves a warning.
+fn check_not_empty(log: &str, run: &RunRecord, stats: Option<&LogStats>) -> Result<()> {
     if run.trajectory.is_empty() && !run.interrupted {
         let s = stats.cloned().unwrap_or_default();
         let others: Vec<String> = s
-            .skipped_types
+            .skipped
             .iter()
             .map(|(t, n)| format!("{n} {}", quoted(t)))
             .collect();
-        let seen = if others.is_empty() {
-            String::new()
-        } else {
-            format!(" (other lines: {})", others.join(", "))
-        };
+        let mut seen = String::new();
+        if !others.is_empty() {
+            seen = format!(" (other {}: {})", s.record_unit, others.join(", "));
+        }
+        if s.bad_records > 0 {
+            seen.push_str(&format!(
+                "; {} bad {} skipped, first: {}",
+                s.bad_records,
+                s.record_unit,
+                quoted(s.bad_record_errors.first().map_or("", String::as_str))
+            ));
+        }
         anyhow::bail!(
-            "{}: no laser scans (FLASER or ROBOTLASER1 lines) in {} lines{seen}",
+            "{}: no laser scans ({}) in {} {}{seen}",
             quoted(log),
-            s.lines
+            s.scan_source,
+            s.records,
+            s.record_unit
         );
     }
     if run.valid_returns == 0 && !run.trajectory.is_empty() {

@@ -22,7 +22,7 @@ use polymap_io::atomic::write_bytes_atomic;
 use polymap_io::map_json::{MapJson, read_map_json, write_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_io::tum::read_tum;
-use polymap_pipeline::folder::RunFolder;
+use polymap_pipeline::folder::{RunFolder, check_output_apart};
 use serde_json::json;
 
 use crate::args::MergeArgs;
@@ -48,7 +48,7 @@ struct Input {
 
 pub fn run(a: &MergeArgs) -> Result<()> {
     let (map_a, map_b) = (read_input(&a.a)?, read_input(&a.b)?);
-    check_output_apart(&a.output, &[&map_a.dir, &map_b.dir])?;
+    check_output_apart(&a.output, &[("map A", &map_a.dir), ("map B", &map_b.dir)])?;
     let folder = RunFolder::prepare(&a.output)?;
     let config = Config::default();
     let params = GlobalParams::default();
@@ -63,6 +63,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     };
     let found = global_match(&fixed, &map_a.path, &moving, &params, &config.align);
     let search_s = started.elapsed().as_secs_f64();
+    folder.begin_writing()?;
     let Some(found) = found else {
         remove_stale(folder.path())?;
         let report = json!({
@@ -73,6 +74,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
             "segments": {"a": map_a.segments.len(), "b": map_b.segments.len()},
         });
         write_json(&folder.path().join("merge.json"), &report)?;
+        folder.finish_writing(&["merge.json"])?;
         bail!(
             "{} and {} do not overlap: no corner of B (two non-parallel walls meeting) matches a \
              corner of A in angle, so there is no pose to try: not merged (see merge.json)",
@@ -87,6 +89,7 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     if verdict != MatchVerdict::Accepted {
         remove_stale(folder.path())?;
         write_json(&folder.path().join("merge.json"), &report)?;
+        folder.finish_writing(&["merge.json"])?;
         bail!("{}", refusal(&map_a, &map_b, &found, verdict, &params));
     }
     let started = Instant::now();
@@ -108,25 +111,9 @@ pub fn run(a: &MergeArgs) -> Result<()> {
         &polylines,
         &report,
     )?;
+    folder.finish_writing(&["map.json", "merge.json", "map.svg"])?;
     if !a.quiet {
         summarize(&map_a, &map_b, &found, overlap_a, merged.len(), &a.output);
-    }
-    Ok(())
-}
-
-/// Refuses an output folder that is one of the inputs: the merge would replace (or, refused,
-/// remove) that map's own `map.json`.
-fn check_output_apart(output: &Path, inputs: &[&Path]) -> Result<()> {
-    let Ok(out) = output.canonicalize() else {
-        return Ok(()); // not there yet: not an input folder
-    };
-    for input in inputs {
-        if input.canonicalize().is_ok_and(|i| i == out) {
-            bail!(
-                "{}: the output folder is an input map's folder; name another with -o",
-                shown(output)
-            );
-        }
     }
     Ok(())
 }
@@ -137,6 +124,7 @@ fn read_input(dir: &Path) -> Result<Input> {
     if !dir.is_dir() {
         bail!("{}: not a folder (a polymap map output)", shown(dir));
     }
+    crate::outputs::check_run_folder(dir, &["map.json", "trajectory.tum"])?;
     let map = read_map_json(dir.join("map.json"))?;
     let segments = map.map_segments();
     if segments.is_empty() {

@@ -1,4 +1,5 @@
-//! The per-scan diagnostics file, written as the run goes and renamed into place at the end.
+//! The per-scan diagnostics file, written as the run goes and renamed into place at the end;
+//! the check of a run folder read as input.
 
 use std::io::Write;
 use std::path::Path;
@@ -41,4 +42,19 @@ impl DiagnosticsWriter {
 pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
     polymap_io::atomic::write_bytes_atomic(path, bytes)
         .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Checks that the files `names` of the run folder `dir`, read as input, are one run's (see
+/// `polymap_pipeline::manifest`): refuses a folder a run is writing, one a run did not finish
+/// writing, or one that mixes two runs' files; a folder without a manifest gets a note.
+pub fn check_run_folder(dir: &Path, names: &[&str]) -> Result<()> {
+    use polymap_pipeline::manifest::{FolderCheck, MANIFEST_FILE, check_files};
+    if check_files(dir, names)? == FolderCheck::Unknown {
+        eprintln!(
+            "polymap: note: {} has no {MANIFEST_FILE} (written by an older polymap, or by hand): \
+             its files cannot be checked to be of one run",
+            crate::quote::quoted(&dir.display().to_string())
+        );
+    }
+    Ok(())
 }

@@ -67,6 +67,8 @@ pub struct AtomicFile {
     out: Option<BufWriter<File>>,
     fault: Option<Fault>,
     written: u64,
+    /// True once renamed into place; until then dropping removes the temporary file.
+    committed: bool,
 }
 
 /// An injected fault (see [`FAULT_ENV`]).
@@ -99,6 +101,7 @@ impl AtomicFile {
             temp,
             out: Some(BufWriter::with_capacity(1 << 16, file)),
             written: 0,
+            committed: false,
         })
     }
 
@@ -107,7 +110,8 @@ impl AtomicFile {
         &self.path
     }
 
-    /// Flushes and syncs the temporary file and renames it over the final path.
+    /// Flushes and syncs the temporary file and renames it over the final path. On an error
+    /// (a flush, a sync or the rename failing) the temporary file is removed.
     pub fn commit(mut self) -> io::Result<()> {
         if let Some(Fault::AbortAfter(_)) = self.fault {
             // The fault aborts at half the bytes; a file shorter than that aborts here.
@@ -118,6 +122,7 @@ impl AtomicFile {
         file.sync_all()?;
         drop(file);
         std::fs::rename(&self.temp, &self.path)?;
+        self.committed = true;
         if let Some(dir) = self.path.parent() {
             // Make the rename itself durable; a folder that cannot be opened (some platforms)
             // only loses that guarantee.
@@ -161,7 +166,9 @@ impl Write for AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.out.take().is_some() {
+        // Close the file before removing it.
+        drop(self.out.take());
+        if !self.committed {
             let _ = std::fs::remove_file(&self.temp);
         }
     }
@@ -234,6 +241,19 @@ mod tests {
         .unwrap_err();
         assert_eq!(err.kind(), io::ErrorKind::StorageFull);
         assert_eq!(std::fs::read_to_string(&path).unwrap(), "old");
+        assert_eq!(entries(&dir), ["map.json"]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A folder in the way of the final name (`mkdir D/map.json`) fails the rename; the
+    /// temporary file was left behind beside it.
+    #[test]
+    fn a_failed_rename_removes_the_temporary() {
+        let dir = temp_dir("rename");
+        let path = dir.join("map.json");
+        std::fs::create_dir(&path).unwrap();
+        std::fs::write(path.join("inside"), "x").unwrap();
+        assert!(write_bytes_atomic(&path, b"new").is_err());
         assert_eq!(entries(&dir), ["map.json"]);
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -23,6 +23,9 @@
 //! - [`snapshot`]: the map snapshot every writer takes (here and in `polymap-export`).
 //! - [`atomic`]: every output is written to a temporary file and renamed into place.
 //!
+//! [`input_file`] refuses what is not a regular file where a file is needed (a device, a FIFO)
+//! and bounds what a file read whole may weigh.
+//!
 //! [`printable`] escapes control bytes from a log before they reach a terminal.
 //!
 //! Each format has its own error type carrying the file and, where it applies, the 1-based line.
@@ -32,6 +35,7 @@
 
 pub mod atomic;
 pub mod carmen;
+pub mod input_file;
 pub mod log;
 pub mod loop_nodes;
 pub mod map_json;

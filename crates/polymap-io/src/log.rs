@@ -35,6 +35,7 @@ impl LogKind {
         if path.as_os_str() == "-" {
             return Ok(LogKind::Carmen);
         }
+        refuse_device(path)?;
         Ok(match sniff(path)? {
             Some(f) => LogKind::Ros(f),
             None if path.is_dir() => {
@@ -57,6 +58,36 @@ impl LogKind {
             LogKind::Ros(RosFormat::Sqlite) => "rosbag2 sqlite3 file",
             LogKind::Ros(RosFormat::Folder) => "rosbag2 folder",
         }
+    }
+}
+
+/// Refuses a device or a socket named as the log (`/dev/zero` never ends): a log is a file, a
+/// folder, or a stream through a pipe (`-`, or a FIFO such as a shell's `<(…)`).
+fn refuse_device(path: &Path) -> Result<(), LogError> {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt;
+        let Ok(t) = std::fs::metadata(path).map(|m| m.file_type()) else {
+            return Ok(()); // opening it names the problem
+        };
+        let what = match () {
+            _ if t.is_char_device() => "a character device",
+            _ if t.is_block_device() => "a block device",
+            _ if t.is_socket() => "a socket",
+            _ => return Ok(()),
+        };
+        Err(LogError::Carmen(CarmenError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!("{what}, not a log file: to map a stream, pipe it to standard input (`-`)"),
+            ),
+        }))
+    }
+    #[cfg(not(unix))]
+    {
+        let _ = path;
+        Ok(())
     }
 }
 
@@ -123,6 +154,8 @@ pub struct LogStats {
     pub odometry_dropped: Option<String>,
     /// ROS without odometry: witnessing odometry messages that did not decode, skipped.
     pub odometry_bad_messages: u64,
+    /// What the reader read past, for the user (a recording cut off, and where it ends).
+    pub warnings: Vec<String>,
 }
 
 enum Inner {
@@ -230,6 +263,7 @@ impl LogSource {
                     scans_outside_odometry: 0,
                     odometry_dropped: None,
                     odometry_bad_messages: 0,
+                    warnings: Vec::new(),
                 }
             }
             Inner::Ros(r) => {
@@ -248,6 +282,7 @@ impl LogSource {
                     scans_outside_odometry: s.scans_outside_odometry,
                     odometry_dropped: s.odometry_dropped,
                     odometry_bad_messages: s.odometry_bad_messages,
+                    warnings: s.warnings,
                 }
             }
         }
@@ -271,9 +306,11 @@ impl LogSource {
                     no_return_readings: s.no_return_readings,
                     valid_readings: s.valid_readings,
                     other_warnings: s
-                        .odometry_dropped
-                        .map(|e| format!("no odometry witnesses the steps (from then on): {e}"))
+                        .warnings
                         .into_iter()
+                        .chain(s.odometry_dropped.map(|e| {
+                            format!("no odometry witnesses the steps (from then on): {e}")
+                        }))
                         .chain((s.odometry_bad_messages > 0).then(|| {
                             format!(
                                 "{} odometry message(s) did not decode and were skipped; the \

@@ -35,7 +35,8 @@ use polymap::loops::SavedNode;
 use serde::{Deserialize, Serialize};
 
 use crate::map_json::{
-    MapJsonError, UNITS_METRES, check_version, io_error, json_error, read_text, write_file,
+    MapJsonError, UNITS_METRES, check_version, io_error, json_error, open_saved, read_text,
+    write_file,
 };
 
 /// The file's name in a run folder.
@@ -109,8 +110,7 @@ pub fn write_loop_nodes_to(
 /// Reads a `loop_nodes.json` file.
 pub fn read_loop_nodes(path: impl AsRef<Path>) -> Result<Vec<SavedNode>, MapJsonError> {
     let path = path.as_ref();
-    let file = std::fs::File::open(path).map_err(io_error(path))?;
-    read_loop_nodes_from(std::io::BufReader::new(file), path)
+    read_loop_nodes_from(open_saved(path)?, path)
 }
 
 /// Reads a `loop_nodes.json` document from `input`; `path` names it in errors.
@@ -132,6 +132,7 @@ pub fn read_loop_nodes_from(
             doc.units
         )));
     }
+    check_bounds(&doc.nodes).map_err(invalid)?;
     doc.nodes
         .into_iter()
         .enumerate()
@@ -151,6 +152,45 @@ pub fn read_loop_nodes_from(
             }
         })
         .collect()
+}
+
+/// The most nodes a saved `loop_nodes.json` may hold (a node per few metres of travel).
+pub const MAX_NODES: usize = 100_000;
+/// The most segments all nodes' submaps may hold together.
+pub const MAX_NODE_SEGMENTS: usize = 1_000_000;
+
+/// Checks what the nodes may hold (a saved map's bounds, see [`crate::map_json`]): counts,
+/// poses and each submap's segments, naming the node at fault.
+fn check_bounds(nodes: &[NodeJson]) -> Result<(), String> {
+    use crate::map_json::{MAX_COORDINATE_M, segment_bounds_problem};
+    if nodes.len() > MAX_NODES {
+        return Err(format!(
+            "{} nodes, more than the {MAX_NODES} a saved map may hold",
+            nodes.len()
+        ));
+    }
+    let segments: usize = nodes.iter().map(|n| n.segments.len()).sum();
+    if segments > MAX_NODE_SEGMENTS {
+        return Err(format!(
+            "{segments} segments in the nodes, more than the {MAX_NODE_SEGMENTS} a saved map may \
+             hold"
+        ));
+    }
+    let mut total_m = 0.0;
+    for (i, n) in nodes.iter().enumerate() {
+        if n.pose[..2].iter().any(|v| v.abs() > MAX_COORDINATE_M) {
+            return Err(format!(
+                "node {i} has a pose beyond the ±{MAX_COORDINATE_M} m a saved map may hold"
+            ));
+        }
+        let ends = n.segments.iter().map(|s| ([s[0], s[1]], [s[2], s[3]]));
+        if let Some(problem) =
+            segment_bounds_problem(&format!("node {i} segment"), ends, &mut total_m)
+        {
+            return Err(problem);
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -188,6 +228,16 @@ mod tests {
             read_loop_nodes_from(cut.as_bytes(), "n.json"),
             Err(MapJsonError::Json { .. })
         ));
+        // Coordinates a hostile file may hold are bounded, with the node named.
+        let far = r#"{"version": 1, "units": "m", "frame": "x", "nodes": [
+            {"pose": [0, 0, 0], "segments": []},
+            {"pose": [0, 0, 0], "segments": [[0, 0, 1e300, 1]]}]}"#;
+        let err = read_loop_nodes_from(far.as_bytes(), "n.json").unwrap_err();
+        assert!(
+            err.to_string()
+                .contains("n.json: node 1 segment 0 has a coordinate of 1e300 m"),
+            "{err}"
+        );
         let mut bad = nodes.clone();
         bad[0].pose.x_m = f64::NAN;
         assert!(write_loop_nodes_to(Vec::new(), "n", "x", &bad).is_err());

@@ -21,7 +21,6 @@
 //! assert!((back[0].map_from_robot.theta_rad - 3.0).abs() < 1e-9);
 //! ```
 
-use std::fs::File;
 use std::io::{BufRead, BufReader, Read, Write};
 use std::path::{Path, PathBuf};
 
@@ -136,7 +135,7 @@ fn check_writable(pose: &StampedPose) -> Result<(), String> {
 /// Reads a trajectory file; `#` comments and blank lines are skipped.
 pub fn read_tum(path: impl AsRef<Path>) -> Result<Vec<StampedPose>, TumError> {
     let path = path.as_ref();
-    let file = File::open(path).map_err(|source| TumError::Io {
+    let file = crate::input_file::open_regular(path).map_err(|source| TumError::Io {
         path: path.to_path_buf(),
         source,
     })?;

@@ -7,6 +7,7 @@
 
 use std::io;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
 use polymap::config::Config;
@@ -21,6 +22,9 @@ use polymap_io::snapshot::{MapSnapshot, ScanPoints};
 use polymap_io::tum::{TumError, write_tum};
 use serde_json::json;
 
+use crate::manifest::{
+    FolderLock, MANIFEST_FILE, Manifest, ManifestError, manifest_of, new_run_id, write_manifest,
+};
 use crate::pipeline::RunRecord;
 
 /// The files every run writes, in the order written.
@@ -34,6 +38,16 @@ pub const RUN_FILES: [&str; 6] = [
 ];
 /// The per-scan diagnostics file (`--diagnostics`).
 pub const DIAGNOSTICS_FILE: &str = "diagnostics.jsonl";
+
+/// Every file name a run may write (the manifest lists those a run wrote).
+pub fn ours() -> Vec<&'static str> {
+    RUN_FILES
+        .iter()
+        .copied()
+        .chain([DIAGNOSTICS_FILE, MANIFEST_FILE])
+        .chain(Format::ALL.iter().flat_map(|f| f.files().iter().copied()))
+        .collect()
+}
 
 /// Why the run folder cannot be used or written.
 #[derive(Debug, thiserror::Error)]
@@ -71,17 +85,56 @@ pub enum FolderError {
     /// A picture or export could not be written.
     #[error(transparent)]
     Export(#[from] ExportError),
+    /// The folder's lock or manifest.
+    #[error(transparent)]
+    Manifest(#[from] ManifestError),
+    /// The output folder is one of the command's inputs, which writing would change.
+    #[error(
+        "{}: the output folder is an input ({what}), which writing there would change; name \
+         another folder with -o",
+        path.display()
+    )]
+    IsAnInput {
+        /// The output folder given.
+        path: PathBuf,
+        /// The input it is (`saved map`, `log`, …).
+        what: String,
+    },
 }
 
-/// A checked run folder.
+/// Refuses an output folder that is one of `inputs` (each with what it is, e.g. `("saved
+/// map", dir)`), compared after following links: writing the run there would change an input
+/// the command promises to read only. An output that does not exist yet is no input.
+pub fn check_output_apart(output: &Path, inputs: &[(&str, &Path)]) -> Result<(), FolderError> {
+    let Ok(out) = output.canonicalize() else {
+        return Ok(());
+    };
+    match inputs
+        .iter()
+        .find(|(_, input)| input.canonicalize().is_ok_and(|i| i == out))
+    {
+        Some((what, _)) => Err(FolderError::IsAnInput {
+            path: output.to_path_buf(),
+            what: (*what).to_owned(),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// A checked run folder, locked for this run until dropped.
 #[derive(Debug, Clone)]
 pub struct RunFolder {
     dir: PathBuf,
+    /// This run's identifier, in the manifest.
+    run: String,
+    _lock: Arc<FolderLock>,
 }
 
 impl RunFolder {
     /// Creates `dir` if missing and checks that it is a folder where files can be written (by
     /// writing and removing a probe file): a read-only or wrong output is found before mapping.
+    /// Takes the folder's lock ([`FolderLock::exclusive`]): a second run writing the same
+    /// folder is refused ([`ManifestError::Busy`]) before it maps.
     pub fn prepare(dir: &Path) -> Result<RunFolder, FolderError> {
         if dir.exists() && !dir.is_dir() {
             return Err(FolderError::NotAFolder {
@@ -94,8 +147,11 @@ impl RunFolder {
         };
         std::fs::create_dir_all(dir).map_err(not_writable)?;
         check_writable_dir(dir).map_err(not_writable)?;
+        let lock = FolderLock::exclusive(dir)?;
         let folder = RunFolder {
             dir: dir.to_path_buf(),
+            run: new_run_id(),
+            _lock: Arc::new(lock),
         };
         folder.remove_temporaries().map_err(not_writable)?;
         Ok(folder)
@@ -103,12 +159,7 @@ impl RunFolder {
 
     /// Removes the temporary files a killed run left (`.NAME.tmp-PID` of polymap's own names).
     fn remove_temporaries(&self) -> io::Result<()> {
-        let ours: Vec<&str> = RUN_FILES
-            .iter()
-            .copied()
-            .chain([DIAGNOSTICS_FILE])
-            .chain(Format::ALL.iter().flat_map(|f| f.files().iter().copied()))
-            .collect();
+        let ours = ours();
         for entry in std::fs::read_dir(&self.dir)? {
             let name = entry?.file_name().to_string_lossy().into_owned();
             let is_ours = ours.iter().any(|n| name.starts_with(&format!(".{n}.tmp-")));
@@ -146,9 +197,36 @@ impl RunFolder {
         Ok(removed)
     }
 
-    /// Writes a finished run: the contract files first, then the picture, the history and the
-    /// `formats` asked for. Returns the export files written.
+    /// Opens the write phase: the manifest says the folder is being written, so that a run
+    /// killed or failing before [`RunFolder::finish_writing`] leaves a folder that readers
+    /// refuse rather than take for one run.
+    pub fn begin_writing(&self) -> Result<(), FolderError> {
+        let manifest = Manifest {
+            complete: false,
+            ..manifest_of(&self.dir, &self.run, &[])?
+        };
+        Ok(write_manifest(&self.dir, &manifest)?)
+    }
+
+    /// Closes the write phase: the manifest lists the files `names` (those present) with their
+    /// size and CRC-32, written last.
+    pub fn finish_writing(&self, names: &[&str]) -> Result<(), FolderError> {
+        let files: Vec<&str> = names
+            .iter()
+            .copied()
+            .filter(|n| *n != MANIFEST_FILE)
+            .collect();
+        Ok(write_manifest(
+            &self.dir,
+            &manifest_of(&self.dir, &self.run, &files)?,
+        )?)
+    }
+
+    /// Writes a finished run (after [`RunFolder::begin_writing`]): the contract files first,
+    /// then the picture, the history, the `formats` asked for, and the manifest. Returns the
+    /// export files written.
     pub fn write_run(&self, run: &RunFiles<'_>) -> Result<Vec<PathBuf>, FolderError> {
+        self.begin_writing()?;
         let d = &self.dir;
         write_map_json(d.join("map.json"), &run.snapshot.map_json())?;
         write_tum(d.join("trajectory.tum"), &run.snapshot.trajectory)?;
@@ -163,7 +241,9 @@ impl RunFolder {
             history: Some(run.history),
             resolution_m: run.resolution_m,
         };
-        Ok(export(run.formats, &input)?)
+        let written = export(run.formats, &input)?;
+        self.finish_writing(&ours())?;
+        Ok(written)
     }
 
     fn write_json(

@@ -10,6 +10,9 @@
 //!   order, the small contract files first (`map.json`, `trajectory.tum`, `summary.json`),
 //!   every file atomically; outputs of an earlier run that this run does not write are
 //!   removed, and said so.
+//! - [`manifest`]: what ties the folder's files together: `manifest.json`, written last (each
+//!   file's size and CRC-32), checked by the commands that read a run folder; and the folder's
+//!   lock, held while a run writes it.
 //!
 //! Everything is in metres and radians, map frame unless a name says otherwise.
 
@@ -17,6 +20,7 @@
 #![forbid(unsafe_code)]
 
 pub mod folder;
+pub mod manifest;
 pub mod pipeline;
 
 /// The README's Rust example, compiled as a doctest so that the guide cannot rot (its shell

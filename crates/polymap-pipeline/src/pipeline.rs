@@ -152,12 +152,12 @@ pub fn scan_points(scan: &RangeScan) -> Vec<Vec2> {
 }
 
 /// Maps everything `source` yields (up to `options.max_scans`) with `config`, calling
-/// `on_scan` after each scan is mapped. On a read error, the error (what was mapped before is
+/// `on_scan` after each scan is mapped; `options.mapper` (a saved map's) is moved into the run. On a read error, the error (what was mapped before is
 /// dropped: the log is not what it claims to be).
 pub fn run<S>(
     source: S,
     config: &Config,
-    options: &PipelineOptions,
+    mut options: PipelineOptions,
     mut on_scan: impl FnMut(&ScanEvent<'_>) -> Result<(), BoxError>,
 ) -> Result<RunOutcome<S>, PipelineError>
 where
@@ -179,10 +179,12 @@ where
             .spawn(move || read_ahead(source, &config, pick, keep, batch, tx))
             .map_err(PipelineError::Spawn)?
     };
-    let mut rec = Recorder::new(config, options);
-    if let Some(mapper) = &options.mapper {
-        rec.mapper = mapper.clone();
-    }
+    // The saved map's mapper moves in: a copy of a large map's index doubled its memory.
+    let mapper = options
+        .mapper
+        .take()
+        .unwrap_or_else(|| Mapper::new(config.clone()));
+    let mut rec = Recorder::new(mapper, &options);
     // On an error this returns at once, dropping `rx`: the reading thread ends at its next
     // hand-over and is not waited for (it may be blocked reading a stream).
     let stop = options.stop.clone().unwrap_or_default();
@@ -356,9 +358,9 @@ struct Recorder {
 }
 
 impl Recorder {
-    fn new(config: &Config, options: &PipelineOptions) -> Self {
+    fn new(mapper: Mapper, options: &PipelineOptions) -> Self {
         Recorder {
-            mapper: Mapper::new(config.clone()),
+            mapper,
             trajectory: Vec::new(),
             scan_points: options.keep_scan_points.then(ScanPoints::default),
             history: ReportRecorder::new(options.history_title.clone(), ReportBudget::default()),
@@ -503,7 +505,7 @@ mod tests {
                 keep_scan_points: true,
                 ..PipelineOptions::default()
             };
-            let out = run(source(&scans), &config, &options, |_| Ok(())).expect("runs");
+            let out = run(source(&scans), &config, options, |_| Ok(())).expect("runs");
             let r = &out.record;
             assert_eq!(r.mapper.segments(), mapper.segments());
             let poses: Vec<_> = r.trajectory.iter().map(|p| p.map_from_robot).collect();
@@ -532,7 +534,7 @@ mod tests {
         run(
             source(&scans),
             &Config::default(),
-            &PipelineOptions::default(),
+            PipelineOptions::default(),
             |e| {
                 seen.push((e.index, e.bytes_read));
                 Ok(())
@@ -554,7 +556,7 @@ mod tests {
             stop: Some(Arc::clone(&stop)),
             ..PipelineOptions::default()
         };
-        let out = run(source(&scans), &Config::default(), &options, |e| {
+        let out = run(source(&scans), &Config::default(), options, |e| {
             if e.index == 49 {
                 stop.store(true, Ordering::SeqCst);
             }
@@ -575,7 +577,7 @@ mod tests {
             max_scans: Some(10),
             ..PipelineOptions::default()
         };
-        let out = run(source(&scans), &Config::default(), &options, |_| Ok(())).expect("runs");
+        let out = run(source(&scans), &Config::default(), options, |_| Ok(())).expect("runs");
         let stamps: Vec<_> = out
             .record
             .trajectory
@@ -591,7 +593,7 @@ mod tests {
         let e = run(
             failing,
             &Config::default(),
-            &PipelineOptions::default(),
+            PipelineOptions::default(),
             |_| Ok(()),
         )
         .expect_err("the read error fails the run");

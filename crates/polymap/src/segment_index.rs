@@ -203,17 +203,33 @@ impl<K: Copy + Ord> SegmentIndex<K> {
 
     /// The cells of the segment's bounding box grown by `grow_m` whose centre lies within
     /// `limit_m` of the segment, each with that distance (metres).
+    ///
+    /// Only the strip along the segment is visited: per column of cells, the rows where the
+    /// part of the segment within `limit_m` of the column lies (widened by half a cell against
+    /// rounding). The cost grows with the segment's length, not its bounding box: a long
+    /// diagonal once walked every cell of its box (minutes for one wall of a hostile map).
     fn cells_around(&self, s: &Segment, grow_m: f64, limit_m: f64) -> Vec<(Cell, f64)> {
         let (lo, hi) = s.bounds();
         let g = Vec2::splat(grow_m);
         let (c0, c1) = (self.cell_of(lo - g), self.cell_of(hi + g));
+        let d = s.vector();
+        let margin = limit_m.max(0.0) + 0.5 * self.cell_m;
         let mut out = Vec::new();
         for i in c0.0..=c1.0 {
-            for j in c0.1..=c1.1 {
-                let centre = Vec2::new(
-                    (i as f64 + 0.5) * self.cell_m,
-                    (j as f64 + 0.5) * self.cell_m,
-                );
+            let xc = (i as f64 + 0.5) * self.cell_m;
+            // The segment's points within `margin` of the column's centre line, by x.
+            let (y0, y1) = if d.x != 0.0 {
+                let t0 = ((xc - margin - s.start.x) / d.x).clamp(0.0, 1.0);
+                let t1 = ((xc + margin - s.start.x) / d.x).clamp(0.0, 1.0);
+                let (ya, yb) = (s.start.y + d.y * t0, s.start.y + d.y * t1);
+                (ya.min(yb), ya.max(yb))
+            } else {
+                (lo.y, hi.y)
+            };
+            let j0 = floor_i64((y0 - margin) / self.cell_m).max(c0.1);
+            let j1 = floor_i64((y1 + margin) / self.cell_m).min(c1.1);
+            for j in j0..=j1 {
+                let centre = Vec2::new(xc, (j as f64 + 0.5) * self.cell_m);
                 let d_2 = s.distance_2_to_point(centre);
                 if d_2 <= limit_m * limit_m {
                     out.push(((i, j), d_2.sqrt()));
@@ -788,6 +804,28 @@ mod tests {
 #[cfg(test)]
 mod far_tests {
     use super::*;
+
+    /// A diagonal wall 85 km long is listed in the strip of cells along it, a few per metre,
+    /// not in every cell of its bounding box (about 1.4e10 cells: minutes and gigabytes).
+    #[test]
+    fn a_long_diagonal_is_listed_in_cells_along_its_length() {
+        let cell_m = 0.5;
+        let mut grid = SegmentIndex::new(cell_m, 0.0);
+        let s = Segment::new(Vec2::new(3e4, 3e4), Vec2::new(-3e4, -3e4));
+        grid.insert(1u8, s);
+        let listed: usize = grid.cells.values().map(Vec::len).sum();
+        let along = (s.length() / cell_m).ceil() as usize;
+        assert!(
+            listed >= along && listed <= 4 * along,
+            "listed in {listed} cells for {along} cells of length"
+        );
+        assert_eq!(
+            grid.nearest(Vec2::new(10.0, 10.2), 0.5).map(|h| h.0),
+            Some(1)
+        );
+        grid.remove(1, &s);
+        assert!(grid.is_empty());
+    }
 
     /// Cells are i64: with i32 cells, beyond about 1.07e9 m every segment would fall in no cell
     /// and the mapper would silently stop finding anything.

@@ -316,6 +316,16 @@ fn a_trajectory_that_does_not_match_the_log_is_an_error() {
         .map(|l| format!("9{l}\n"))
         .collect();
     fs::write(&traj, shifted).unwrap();
+    // The run's manifest says the trajectory is not the run's...
+    let o = polymap(&["export", &run, "--format", "pgm"]);
+    assert!(
+        !o.status.success()
+            && String::from_utf8_lossy(&o.stderr).contains("trajectory.tum: not the file run"),
+        "{}",
+        text(&o)
+    );
+    // ...and without the manifest (a folder edited by hand) the stamps still tell.
+    fs::remove_file(format!("{run}/manifest.json")).unwrap();
     let o = polymap(&["export", &run, "--format", "pgm"]);
     assert!(
         !o.status.success()

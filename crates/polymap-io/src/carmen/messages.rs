@@ -105,15 +105,24 @@ fn parse_laser_config(f: &mut Fields<'_>) -> Result<LaserConfig, LineProblem> {
 /// Smallest angular resolution accepted, radians (0.0006°; real lasers step 0.06° or more).
 pub(crate) const MIN_RESOLUTION_RAD: f64 = 1e-5;
 
+/// Why `beams` beams `step_rad` apart cannot be a laser's: they span more than a full turn;
+/// `None` when they do not. The one rule of every reader (CARMEN `ROBOTLASER1`, ROS
+/// `LaserScan`, whose step may be negative).
+pub(crate) fn beyond_a_turn(step_rad: f64, beams: usize) -> Option<String> {
+    let span = step_rad.abs() * beams.saturating_sub(1) as f64;
+    (span > std::f64::consts::TAU * 1.001).then(|| {
+        format!("{beams} beams at {step_rad} rad span {span:.3} rad, more than a full turn")
+    })
+}
+
 /// Refuses a resolution that cannot be a laser's: not above [`MIN_RESOLUTION_RAD`], or beams
 /// spanning more than a full turn.
 fn check_resolution(config: &LaserConfig, beams: usize) -> Result<(), LineProblem> {
     let res = config.angular_resolution_rad;
-    let span = res * beams.saturating_sub(1) as f64;
     let reason = if res < MIN_RESOLUTION_RAD {
         format!("{res} rad is not a laser's angular resolution (at least {MIN_RESOLUTION_RAD} rad)")
-    } else if span > std::f64::consts::TAU * 1.001 {
-        format!("{beams} beams at {res} rad span {span:.3} rad, more than a full turn")
+    } else if let Some(reason) = beyond_a_turn(res, beams) {
+        reason
     } else {
         return Ok(());
     };

@@ -43,6 +43,7 @@ mod error;
 mod fields;
 mod geometry;
 mod messages;
+pub(crate) use messages::beyond_a_turn;
 mod reader;
 mod stats;
 mod writer;

@@ -21,6 +21,11 @@ use super::stats::CarmenStats;
 /// whose odometry stopped for good is not held in memory).
 pub const MAX_HELD_SCANS: usize = 64;
 
+/// With `skip_bad_lines`, a line too long is skipped up to its end, if that comes within this
+/// many times [`ReaderOptions::max_line_bytes`]; beyond, the input is not a text log (a device
+/// such as `/dev/zero` on standard input never ends its first line).
+const SKIPPED_LINE_FACTOR: usize = 16;
+
 /// How a [`CarmenReader`] treats its input.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ReaderOptions {
@@ -238,15 +243,31 @@ impl<R: BufRead> CarmenReader<R> {
         if self.line.last() == Some(&b'\n') {
             self.line.pop();
         } else if self.line.len() > limit {
-            self.discard_rest_of_line()?;
+            // Not skipping, the run ends on this line: its rest (endless from a device such
+            // as /dev/zero) is not read.
+            if self.options.skip_bad_lines {
+                self.discard_rest_of_line(limit.saturating_mul(SKIPPED_LINE_FACTOR))?;
+            }
             return Ok(Some(Err(LineProblem::TooLong { limit_bytes: limit })));
         }
         Ok(Some(Ok(())))
     }
 
-    /// Consumes input up to and including the next newline, without storing it.
-    fn discard_rest_of_line(&mut self) -> Result<(), CarmenError> {
+    /// Consumes input up to and including the next newline, without storing it; more than
+    /// `max_bytes` without a newline is not a text log, and an error.
+    fn discard_rest_of_line(&mut self, max_bytes: usize) -> Result<(), CarmenError> {
+        let mut discarded = 0usize;
         loop {
+            if discarded > max_bytes {
+                return Err(self.io_error(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!(
+                        "line {} goes on for more than {max_bytes} bytes without an end: not a \
+                         text log",
+                        self.line_number
+                    ),
+                )));
+            }
             let buf = self.input.fill_buf().map_err(|source| CarmenError::Io {
                 path: self.path.clone(),
                 source,
@@ -262,6 +283,7 @@ impl<R: BufRead> CarmenReader<R> {
                 None => {
                     let len = buf.len();
                     self.input.consume(len);
+                    discarded = discarded.saturating_add(len);
                 }
             }
         }

@@ -369,3 +369,33 @@ proptest! {
         prop_assert!(s.stale_odometry.count + s.stale_odometry_kept.count <= s.scans);
     }
 }
+
+/// `polymap map - < /dev/zero` spun forever, discarding a line that never ends: without
+/// skipping the first line too long is the error; with skipping, a line without an end after
+/// 16 times the limit is.
+#[test]
+fn an_endless_line_ends_the_reader() {
+    let options = ReaderOptions {
+        max_line_bytes: 100,
+        ..ReaderOptions::default()
+    };
+    let endless = || std::io::BufReader::new(std::io::repeat(0));
+    let mut r = CarmenReader::from_reader(endless(), "<stdin>", options.clone());
+    assert!(matches!(
+        r.next_scan(),
+        Err(CarmenError::Malformed {
+            problem: LineProblem::TooLong { .. },
+            ..
+        })
+    ));
+    let skipping = ReaderOptions {
+        skip_bad_lines: true,
+        ..options
+    };
+    let mut r = CarmenReader::from_reader(endless(), "<stdin>", skipping);
+    let e = r.next_scan().unwrap_err();
+    assert!(
+        e.to_string().contains("without an end: not a text log"),
+        "{e}"
+    );
+}

@@ -132,6 +132,14 @@ pub enum MessageProblem {
         /// The value.
         value: f64,
     },
+    /// The laser's geometry cannot be a laser's (the CARMEN reader refuses the same).
+    #[error("`{field}`: {reason}")]
+    BadGeometry {
+        /// The field.
+        field: &'static str,
+        /// Why, with the figures.
+        reason: String,
+    },
     /// The message's encoding is not one polymap decodes.
     #[error("message encoding `{0}` is not supported (only `cdr` and `ros1`)")]
     Encoding(String),

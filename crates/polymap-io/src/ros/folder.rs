@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use super::error::RosError;
 use super::source::{Connection, MessageSource, RawMessage};
+use crate::input_file::{check_regular, read_regular_to_string};
 
 /// What polymap needs of a rosbag2 `metadata.yaml`.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -59,10 +60,15 @@ fn unquote(v: &str) -> String {
     v.trim().trim_matches(|c| c == '\'' || c == '"').to_owned()
 }
 
-/// The storage files of a rosbag2 folder, checked to exist.
+/// The most `metadata.yaml` may weigh, bytes (rosbag2 writes a few kB).
+const MAX_METADATA_BYTES: u64 = 1 << 20;
+
+/// The storage files of a rosbag2 folder, each checked to be a regular file (a FIFO would block
+/// the reader, a device never end) and listed once (a file listed twice would be mapped twice).
 pub(crate) fn folder_files(dir: &Path) -> Result<Vec<PathBuf>, RosError> {
     let yaml = dir.join("metadata.yaml");
-    let text = std::fs::read_to_string(&yaml).map_err(|e| RosError::io(&yaml, e))?;
+    let text =
+        read_regular_to_string(&yaml, MAX_METADATA_BYTES).map_err(|e| RosError::io(&yaml, e))?;
     let m = parse_metadata(&text);
     if !m.compression_mode.is_empty() {
         return Err(RosError::Unsupported {
@@ -79,7 +85,26 @@ pub(crate) fn folder_files(dir: &Path) -> Result<Vec<PathBuf>, RosError> {
             what: "no `relative_file_paths` listed".into(),
         });
     }
-    Ok(m.relative_file_paths.iter().map(|f| dir.join(f)).collect())
+    let mut seen = std::collections::HashSet::new();
+    let mut files = Vec::with_capacity(m.relative_file_paths.len());
+    for name in &m.relative_file_paths {
+        let path = dir.join(name);
+        check_regular(&path).map_err(|e| RosError::io(&path, e))?;
+        // The same file under two names (`a.db3`, `./a.db3`, a link) is the same file.
+        let same = std::fs::canonicalize(&path).map_err(|e| RosError::io(&path, e))?;
+        if !seen.insert(same) {
+            return Err(RosError::Unsupported {
+                path: yaml,
+                what: format!(
+                    "`relative_file_paths` lists {} more than once: its messages would be read \
+                     twice; list each storage file once",
+                    crate::printable::printable(name)
+                ),
+            });
+        }
+        files.push(path);
+    }
+    Ok(files)
 }
 
 /// Opens the reader of one storage file.
@@ -96,6 +121,7 @@ pub(crate) struct Chain {
     connections: Vec<Connection>,
     position_before: u64,
     skipped: (u64, Vec<String>),
+    warnings: Vec<String>,
 }
 
 impl Chain {
@@ -109,6 +135,7 @@ impl Chain {
             connections: Vec::new(),
             position_before: 0,
             skipped: (0, Vec::new()),
+            warnings: Vec::new(),
         };
         chain.open_next()?;
         Ok(chain)
@@ -121,6 +148,7 @@ impl Chain {
             let (n, msgs) = old.skipped();
             self.skipped.0 += n;
             self.skipped.1.extend(msgs.iter().cloned());
+            self.warnings.extend(old.warnings().iter().cloned());
         }
         let Some(path) = self.parts.get(self.next_part).cloned() else {
             return Ok(false);
@@ -193,5 +221,59 @@ impl MessageSource for Chain {
     fn skipped(&self) -> (u64, &[String]) {
         let extra = self.current.as_ref().map_or(0, |c| c.skipped().0);
         (self.skipped.0 + extra, &self.skipped.1)
+    }
+
+    fn warnings(&self) -> &[String] {
+        // Those of the parts read; the current part's are taken in when the next opens.
+        &self.warnings
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A rosbag2 folder whose `metadata.yaml` lists `listed`, holding the file `a_0.db3`.
+    fn folder(listed: &[&str]) -> tempfile::TempDir {
+        let dir = tempfile::tempdir().unwrap();
+        let items: String = listed.iter().map(|n| format!("  - {n}\n")).collect();
+        let yaml = format!(
+            "rosbag2_bagfile_information:\n  compression_mode: ''\n  relative_file_paths:\n\
+             {items}  storage_identifier: sqlite3\n"
+        );
+        std::fs::write(dir.path().join("metadata.yaml"), yaml).unwrap();
+        std::fs::write(dir.path().join("a_0.db3"), "SQLite format 3\0").unwrap();
+        dir
+    }
+
+    /// A `metadata.yaml` listing one `.db3` 24 times mapped it 24 times.
+    #[test]
+    fn a_storage_file_listed_twice_is_refused() {
+        let once = folder(&["a_0.db3"]);
+        assert_eq!(folder_files(once.path()).unwrap().len(), 1);
+        let twice = folder(&["a_0.db3", "b.db3", "./a_0.db3"]);
+        std::fs::write(twice.path().join("b.db3"), "x").unwrap();
+        let e = folder_files(twice.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("metadata.yaml") && e.contains("lists ./a_0.db3 more than once"),
+            "{e}"
+        );
+    }
+
+    /// A FIFO named in `metadata.yaml` blocked the reader (opening it waits for a writer).
+    #[cfg(unix)]
+    #[test]
+    fn a_storage_file_that_is_a_fifo_is_refused() {
+        let dir = folder(&["pipe.db3"]);
+        let made = std::process::Command::new("mkfifo")
+            .arg(dir.path().join("pipe.db3"))
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let e = folder_files(dir.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("pipe.db3: a FIFO (named pipe), not a regular file"),
+            "{e}"
+        );
     }
 }

@@ -1,15 +1,17 @@
 //! MCAP files (ROS 2's default storage since Iron): a streaming reader over the `mcap` crate's
 //! sans-I/O linear reader, and a writer.
 
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::fs::File;
 use std::io::{BufWriter, Read};
 use std::path::{Path, PathBuf};
 
-use mcap::records::{MessageHeader, Record};
+use mcap::McapError;
+use mcap::records::{MessageHeader, op};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use super::error::RosError;
+use super::mcap_chunk::{ChunkPlace, ChunkRecord, chunk_records, chunk_span_ns, owned};
 use super::messages::RosTime;
 use super::source::{Connection, Encoding, MessageSource, Place, RawMessage, ReadLimits};
 use super::typedefs::ros2_definition;
@@ -19,8 +21,13 @@ pub const MCAP_MAGIC: &[u8] = b"\x89MCAP0\r\n";
 /// Largest read handed to the linear reader at once, bytes.
 const READ_BYTES: usize = 1 << 20;
 
-/// A streaming MCAP reader: records in file order, chunks decompressed one piece at a time
-/// (zstd and lz4), memory bounded by the largest record ([`ReadLimits`]).
+/// A streaming MCAP reader: records in file order, chunks decompressed one at a time (zstd
+/// and lz4), memory bounded by the largest record ([`ReadLimits`]).
+///
+/// Each chunk's CRC, when it has one, is checked before any of its messages is handed out: a
+/// damaged chunk is an error, or with `skip_bad` a counted skip naming the chunk and the time
+/// span lost. A file that ends early (no footer, as a crashed recorder leaves it, or inside a
+/// record) yields what comes before the cut, with a warning saying where the file ends.
 ///
 /// Messages of types polymap does not decode (anything but `LaserScan` and `Odometry`) are
 /// counted but not copied: their [`RawMessage::data`] is empty.
@@ -28,41 +35,74 @@ pub struct McapReader {
     file: File,
     path: PathBuf,
     reader: LinearReader,
+    limit: usize,
+    skip_bad: bool,
     position: u64,
+    /// Where the next record starts: the end of the last whole record read.
+    records_end: u64,
     connections: Vec<Connection>,
     channels: HashMap<u16, usize>,
     schemas: HashMap<u16, String>,
+    /// Records of the chunk being read, not yet handed out.
+    pending: VecDeque<ChunkRecord>,
+    chunks: u64,
     data: Vec<u8>,
     done: bool,
-    /// The current message: connection, log time, bytes read before it was found.
+    skipped: (u64, Vec<String>),
+    warnings: Vec<String>,
+    /// The current message: connection, log time, offset of its record (or chunk).
     found: Option<(usize, i128, u64)>,
+    /// Offset of the chunk whose records are pending.
+    chunk_offset: u64,
 }
 
 impl McapReader {
-    /// Opens an MCAP file.
-    pub fn open(path: &Path, limits: ReadLimits) -> Result<Self, RosError> {
-        let file = File::open(path).map_err(|e| RosError::io(path, e))?;
+    /// Opens an MCAP file; `skip_bad` skips damaged chunks and records instead of failing.
+    pub fn open(path: &Path, limits: ReadLimits, skip_bad: bool) -> Result<Self, RosError> {
+        let file = crate::input_file::open_regular(path).map_err(|e| RosError::io(path, e))?;
         let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
+        // Chunks come whole and are checked on their own (`mcap_chunk`), so that a bad one can
+        // be skipped and its messages are never handed out.
         let options = LinearReaderOptions::default()
             .with_record_length_limit(limit)
-            .with_validate_chunk_crcs(true);
+            .with_emit_chunks(true);
         Ok(McapReader {
             file,
             path: path.to_path_buf(),
             reader: LinearReader::new_with_options(options),
+            limit,
+            skip_bad,
             position: 0,
+            records_end: MCAP_MAGIC.len() as u64,
             connections: Vec::new(),
             channels: HashMap::new(),
             schemas: HashMap::new(),
+            pending: VecDeque::new(),
+            chunks: 0,
             data: Vec::new(),
             done: false,
+            skipped: (0, Vec::new()),
+            warnings: Vec::new(),
             found: None,
+            chunk_offset: 0,
         })
     }
 
     /// The next message record: its channel and log time, its data in `self.data`.
-    fn step(&mut self) -> Result<Option<(usize, i128)>, RosError> {
+    fn step(&mut self) -> Result<Option<(usize, i128, u64)>, RosError> {
         loop {
+            while let Some(record) = self.pending.pop_front() {
+                let found = handle_record(
+                    record,
+                    &mut self.schemas,
+                    &mut self.channels,
+                    &mut self.connections,
+                    &mut self.data,
+                );
+                if let Some((c, t)) = found {
+                    return Ok(Some((c, t, self.chunk_offset)));
+                }
+            }
             if self.done {
                 return Ok(None);
             }
@@ -73,11 +113,8 @@ impl McapReader {
                 }
                 Some(Err(e)) => {
                     self.done = true;
-                    return Err(RosError::container(
-                        &self.path,
-                        self.position,
-                        format!("{e} (in the data read up to this byte)"),
-                    ));
+                    self.ended_early(e)?;
+                    return Ok(None);
                 }
                 Some(Ok(event)) => event,
             };
@@ -92,76 +129,136 @@ impl McapReader {
                     self.position += read as u64;
                 }
                 LinearReadEvent::Record { data, opcode } => {
-                    let record = mcap::parse_record(opcode, data).map_err(|e| {
-                        RosError::container(&self.path, self.position, format!("bad record: {e}"))
-                    });
-                    let found = match record {
-                        Ok(r) => handle_record(
-                            r,
-                            &mut self.schemas,
-                            &mut self.channels,
-                            &mut self.connections,
-                            &mut self.data,
-                        ),
-                        Err(e) => {
-                            self.done = true;
-                            return Err(e);
-                        }
+                    let offset = self.records_end;
+                    self.records_end += 9 + data.len() as u64;
+                    let records = if opcode == op::CHUNK {
+                        self.chunks += 1;
+                        let place = ChunkPlace {
+                            number: self.chunks,
+                            offset,
+                            span_ns: chunk_span_ns(data),
+                        };
+                        chunk_records(data, self.limit).map_err(|e| (place.describe(), e))
+                    } else {
+                        mcap::parse_record(opcode, data)
+                            .map(|r| owned(r).into_iter().collect())
+                            .map_err(|e| (format!("the record at byte {offset}"), e.to_string()))
                     };
-                    if let Some(found) = found {
-                        return Ok(Some(found));
+                    match records {
+                        Ok(records) => {
+                            self.pending = records.into();
+                            self.chunk_offset = offset;
+                        }
+                        Err((what, problem)) => self.bad(offset, &what, &problem)?,
                     }
                 }
             }
         }
     }
+
+    /// A chunk or record that cannot be read: an error, or with `skip_bad` counted and named.
+    fn bad(&mut self, offset: u64, what: &str, problem: &str) -> Result<(), RosError> {
+        let message = format!("{what}: {problem}");
+        if !self.skip_bad {
+            return Err(RosError::container(&self.path, offset, message));
+        }
+        self.skipped.0 += 1;
+        if self.skipped.1.len() < MAX_SKIP_MESSAGES {
+            self.skipped
+                .1
+                .push(format!("{}: {message}: skipped", self.path.display()));
+        }
+        Ok(())
+    }
+
+    /// The reader stopped on `error`: a file that ends early (a recording cut off) ends the
+    /// messages with a warning; anything else is an error (with `skip_bad`, a warning that
+    /// the rest of the file is not read).
+    fn ended_early(&mut self, error: McapError) -> Result<(), RosError> {
+        let size = self.position;
+        let message = match error {
+            McapError::UnexpectedEof if self.records_end >= size => format!(
+                "the file ends at byte {size} without its footer: a recording cut off (as a \
+                 crashed recorder leaves it); read up to there"
+            ),
+            McapError::UnexpectedEof => format!(
+                "the file ends at byte {size}, inside the record that starts at byte {}: a \
+                 recording cut off; read up to that record ({} bytes lost)",
+                self.records_end,
+                size - self.records_end
+            ),
+            other if self.skip_bad => format!(
+                "cannot read on after byte {}: {other}; the rest of the file ({} bytes) is not \
+                 read",
+                self.records_end,
+                size.saturating_sub(self.records_end)
+            ),
+            other => {
+                return Err(RosError::container(
+                    &self.path,
+                    self.records_end,
+                    format!("{other} (in the data read up to byte {size})"),
+                ));
+            }
+        };
+        self.warnings
+            .push(format!("{}: {message}", self.path.display()));
+        Ok(())
+    }
 }
+
+/// Messages of skipped chunks and records kept for the report.
+const MAX_SKIP_MESSAGES: usize = 10;
 
 /// Takes in one record; returns the channel and log time of a message.
 fn handle_record(
-    record: Record<'_>,
+    record: ChunkRecord,
     schemas: &mut HashMap<u16, String>,
     channels: &mut HashMap<u16, usize>,
     connections: &mut Vec<Connection>,
     data: &mut Vec<u8>,
 ) -> Option<(usize, i128)> {
     match record {
-        Record::Schema { header, .. } => {
-            schemas.entry(header.id).or_insert(header.name);
+        ChunkRecord::Schema { id, name } => {
+            schemas.entry(id).or_insert(name);
             None
         }
-        Record::Channel(c) => {
-            if let std::collections::hash_map::Entry::Vacant(e) = channels.entry(c.id) {
+        ChunkRecord::Channel {
+            id,
+            topic,
+            schema_id,
+            encoding,
+        } => {
+            if let std::collections::hash_map::Entry::Vacant(e) = channels.entry(id) {
                 e.insert(connections.len());
                 connections.push(Connection {
-                    topic: c.topic,
-                    type_name: schemas.get(&c.schema_id).cloned().unwrap_or_default(),
-                    encoding: Encoding::from_name(&c.message_encoding),
+                    topic,
+                    type_name: schemas.get(&schema_id).cloned().unwrap_or_default(),
+                    encoding: Encoding::from_name(&encoding),
                 });
             }
             None
         }
-        Record::Message {
-            header,
+        ChunkRecord::Message {
+            channel_id,
+            log_time,
             data: bytes,
         } => {
             // A message of an undeclared channel is not ours to guess: it is counted nowhere.
-            let &index = channels.get(&header.channel_id)?;
+            let &index = channels.get(&channel_id)?;
             let c = &connections[index];
             data.clear();
             if c.is_laser_scan() || c.is_odometry() {
                 data.extend_from_slice(&bytes);
             }
-            Some((index, i128::from(header.log_time)))
+            Some((index, i128::from(log_time)))
         }
-        _ => None,
     }
 }
 
 impl MessageSource for McapReader {
     fn advance(&mut self) -> Result<bool, RosError> {
-        let offset = self.position;
-        self.found = self.step()?.map(|(c, t)| (c, t, offset));
+        self.found = self.step()?;
         Ok(self.found.is_some())
     }
 
@@ -184,7 +281,11 @@ impl MessageSource for McapReader {
     }
 
     fn skipped(&self) -> (u64, &[String]) {
-        (0, &[])
+        (self.skipped.0, &self.skipped.1)
+    }
+
+    fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 }
 

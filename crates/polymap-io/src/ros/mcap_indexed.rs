@@ -1,33 +1,36 @@
 //! MCAP through its summary: only the chunks that hold the topics asked for are read and
-//! decompressed (the chunk indexes say which), in file order.
+//! decompressed (the chunk indexes say which), in file order, each checked by its CRC.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, VecDeque};
 use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::{Path, PathBuf};
 
-use mcap::sans_io::indexed_reader::{
-    IndexedReadEvent, IndexedReader, IndexedReaderOptions, ReadOrder,
-};
+use mcap::records::{ChunkIndex, op};
 use mcap::sans_io::summary_reader::{SummaryReadEvent, SummaryReader, SummaryReaderOptions};
 
 use mcap::Summary;
 
 use super::error::RosError;
+use super::mcap_chunk::{ChunkPlace, ChunkRecord, chunk_records};
 use super::source::{Connection, Encoding, MessageSource, Place, RawMessage, ReadLimits};
 use super::survey::TopicSummary;
 
 /// Reads the messages of some topics of an indexed MCAP file, skipping every chunk that holds
-/// none of them without reading or decompressing it.
+/// none of them without reading or decompressing it. Each chunk read has its CRC checked (when
+/// it has one) before any of its messages is handed out ([`super::mcap_chunk`]).
 pub struct McapIndexedReader {
     file: File,
     path: PathBuf,
-    reader: IndexedReader,
+    /// The chunks to read, in file order, with their number among all the file's chunks.
+    chunks: VecDeque<(u64, ChunkIndex)>,
     connections: Vec<Connection>,
     channels: HashMap<u16, usize>,
-    chunk: Vec<u8>,
+    pending: VecDeque<ChunkRecord>,
     chunk_offset: u64,
     limit: usize,
+    skip_bad: bool,
+    skipped: (u64, Vec<String>),
     data: Vec<u8>,
     found: Option<(usize, i128)>,
     /// Bytes of chunks read so far.
@@ -36,10 +39,12 @@ pub struct McapIndexedReader {
 
 impl McapIndexedReader {
     /// Opens `path` for the messages of `topics`; `Ok(None)` when the file has no summary with
-    /// chunk indexes (then only a linear read finds its messages).
+    /// chunk indexes (then only a linear read finds its messages). `skip_bad` skips damaged
+    /// chunks (counted and named) instead of failing.
     pub fn open(
         path: &Path,
         limits: ReadLimits,
+        skip_bad: bool,
         topics: &[String],
     ) -> Result<Option<Self>, RosError> {
         let Some((summary, file)) = read_summary(path, limits)? else {
@@ -50,56 +55,94 @@ impl McapIndexedReader {
             return Ok(None);
         }
         let (ids, connections) = summary_connections(&summary);
-        let channels = ids.iter().enumerate().map(|(i, &id)| (id, i)).collect();
-        let options = IndexedReaderOptions::new()
-            .with_order(ReadOrder::File)
-            .include_topics(topics.to_vec())
-            .with_record_length_limit(limit);
-        let reader = IndexedReader::new_with_options(&summary, options)
-            .map_err(|e| RosError::container(path, 0, format!("chunk indexes: {e}")))?;
+        let channels: HashMap<u16, usize> =
+            ids.iter().enumerate().map(|(i, &id)| (id, i)).collect();
+        let wanted: Vec<u16> = ids
+            .iter()
+            .zip(&connections)
+            .filter(|(_, c)| topics.contains(&c.topic))
+            .map(|(&id, _)| id)
+            .collect();
+        let mut all = summary.chunk_indexes.clone();
+        all.sort_by_key(|c| c.chunk_start_offset);
+        // A chunk without message indexes may hold anything: it is read.
+        let chunks = (1u64..)
+            .zip(all)
+            .filter(|(_, c)| {
+                c.message_index_offsets.is_empty()
+                    || c.message_index_offsets.keys().any(|id| wanted.contains(id))
+            })
+            .collect();
         Ok(Some(McapIndexedReader {
             file,
             path: path.to_path_buf(),
-            reader,
+            chunks,
             connections,
-            channels,
-            chunk: Vec::new(),
+            channels: wanted
+                .iter()
+                .filter_map(|id| channels.get(id).map(|&i| (*id, i)))
+                .collect(),
+            pending: VecDeque::new(),
             chunk_offset: 0,
             limit,
+            skip_bad,
+            skipped: (0, Vec::new()),
             data: Vec::new(),
             found: None,
             position: 0,
         }))
     }
 
-    fn load_chunk(&mut self, offset: u64, length: usize) -> Result<(), RosError> {
-        if length > self.limit {
-            return Err(RosError::container(
-                &self.path,
-                offset,
-                format!("a chunk of {length} bytes exceeds the limit"),
-            ));
+    /// Reads the chunk record `index` describes and takes in its records; a damaged chunk is
+    /// an error, or with `skip_bad` counted and named.
+    fn load_chunk(&mut self, number: u64, index: &ChunkIndex) -> Result<(), RosError> {
+        let offset = index.chunk_start_offset;
+        let place = ChunkPlace {
+            number,
+            offset,
+            span_ns: (index.message_start_time, index.message_end_time),
+        };
+        let length = usize::try_from(index.chunk_length).unwrap_or(usize::MAX);
+        if length > self.limit.saturating_add(1 << 10) || length < 9 {
+            return self.bad(offset, &place, &format!("a chunk record of {length} bytes"));
         }
-        self.chunk.clear();
+        let mut record = Vec::with_capacity(length);
         self.file
             .seek(SeekFrom::Start(offset))
             .map_err(|e| RosError::io(&self.path, e))?;
         (&mut self.file)
             .take(length as u64)
-            .read_to_end(&mut self.chunk)
+            .read_to_end(&mut record)
             .map_err(|e| RosError::io(&self.path, e))?;
-        if self.chunk.len() < length {
-            return Err(RosError::container(
-                &self.path,
-                offset,
-                "the file ends inside a chunk (truncated)",
-            ));
+        self.position += record.len() as u64;
+        if record.len() < length {
+            return self.bad(offset, &place, "the file ends inside the chunk (truncated)");
         }
-        self.chunk_offset = offset;
-        self.position += length as u64;
-        self.reader
-            .insert_chunk_record_data(offset, &self.chunk)
-            .map_err(|e| RosError::container(&self.path, offset, format!("bad chunk: {e}")))
+        if record[0] != op::CHUNK {
+            return self.bad(offset, &place, "the chunk index points at no chunk");
+        }
+        match chunk_records(&record[9..], self.limit) {
+            Ok(records) => {
+                self.pending = records.into();
+                self.chunk_offset = offset;
+                Ok(())
+            }
+            Err(problem) => self.bad(offset, &place, &problem),
+        }
+    }
+
+    fn bad(&mut self, offset: u64, place: &ChunkPlace, problem: &str) -> Result<(), RosError> {
+        let message = format!("{}: {problem}", place.describe());
+        if !self.skip_bad {
+            return Err(RosError::container(&self.path, offset, message));
+        }
+        self.skipped.0 += 1;
+        if self.skipped.1.len() < 10 {
+            self.skipped
+                .1
+                .push(format!("{}: {message}: skipped", self.path.display()));
+        }
+        Ok(())
     }
 }
 
@@ -188,34 +231,27 @@ pub fn summary_topics(
 impl MessageSource for McapIndexedReader {
     fn advance(&mut self) -> Result<bool, RosError> {
         loop {
-            let event = match self.reader.next_event() {
-                None => {
-                    self.found = None;
-                    return Ok(false);
-                }
-                Some(Err(e)) => {
-                    return Err(RosError::container(
-                        &self.path,
-                        self.chunk_offset,
-                        format!("{e}"),
-                    ));
-                }
-                Some(Ok(event)) => event,
-            };
-            match event {
-                IndexedReadEvent::ReadChunkRequest { offset, length } => {
-                    self.load_chunk(offset, length)?;
-                }
-                IndexedReadEvent::Message { header, data } => {
-                    let Some(&index) = self.channels.get(&header.channel_id) else {
-                        continue;
-                    };
-                    self.data.clear();
-                    self.data.extend_from_slice(data);
-                    self.found = Some((index, i128::from(header.log_time)));
-                    return Ok(true);
-                }
+            while let Some(record) = self.pending.pop_front() {
+                let ChunkRecord::Message {
+                    channel_id,
+                    log_time,
+                    data,
+                } = record
+                else {
+                    continue;
+                };
+                let Some(&index) = self.channels.get(&channel_id) else {
+                    continue;
+                };
+                self.data = data;
+                self.found = Some((index, i128::from(log_time)));
+                return Ok(true);
             }
+            let Some((number, chunk)) = self.chunks.pop_front() else {
+                self.found = None;
+                return Ok(false);
+            };
+            self.load_chunk(number, &chunk)?;
         }
     }
 
@@ -238,6 +274,6 @@ impl MessageSource for McapIndexedReader {
     }
 
     fn skipped(&self) -> (u64, &[String]) {
-        (0, &[])
+        (self.skipped.0, &self.skipped.1)
     }
 }

@@ -6,6 +6,7 @@ use polymap::scan::{RangeScan, Stamp};
 
 use super::error::MessageProblem;
 use super::wire::{Decoder, Encoder, Flavor};
+use crate::carmen::beyond_a_turn;
 
 /// A ROS time stamp: seconds and nanoseconds since the epoch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
@@ -187,6 +188,12 @@ impl LaserScanMsg {
         {
             return bad("angle_increment", self.angle_increment);
         }
+        if let Some(reason) = beyond_a_turn(f64::from(self.angle_increment), self.ranges.len()) {
+            return Err(MessageProblem::BadGeometry {
+                field: "angle_increment",
+                reason,
+            });
+        }
         if self.range_min.is_nan() {
             return bad("range_min", self.range_min);
         }
@@ -362,5 +369,44 @@ impl OdometryMsg {
             position_m: [pose.x_m, pose.y_m],
             orientation: [0.0, 0.0, s, c],
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scan of `n` beams `step` radians apart, as a message.
+    fn scan(n: usize, step: f32) -> LaserScanMsg {
+        LaserScanMsg {
+            stamp: RosTime { sec: 1, nanosec: 0 },
+            frame_id: "laser".into(),
+            angle_min: 0.0,
+            angle_max: step * (n - 1) as f32,
+            angle_increment: step,
+            time_increment: 0.0,
+            scan_time: 0.0,
+            range_min: 0.0,
+            range_max: 10.0,
+            ranges: vec![1.0; n],
+            intensity_count: 0,
+        }
+    }
+
+    /// Beams spanning 361 rad gave an empty map with exit 0; the CARMEN reader refuses the
+    /// same geometry, and so does this one, clockwise or not.
+    #[test]
+    fn beams_spanning_more_than_a_turn_are_refused() {
+        for step in [1.0f32, -1.0] {
+            let data = scan(362, step).encode(Flavor::CdrLittle, 0);
+            let e = LaserScanMsg::decode(&data, Flavor::CdrLittle).unwrap_err();
+            assert!(
+                e.to_string().contains("362 beams at")
+                    && e.to_string().contains("more than a full turn"),
+                "{e}"
+            );
+        }
+        let turn = scan(360, std::f32::consts::TAU / 360.0).encode(Flavor::CdrLittle, 0);
+        assert!(LaserScanMsg::decode(&turn, Flavor::CdrLittle).is_ok());
     }
 }

@@ -20,6 +20,7 @@
 
 pub mod error;
 pub mod folder;
+pub(crate) mod mcap_chunk;
 pub mod mcap_file;
 pub mod mcap_indexed;
 pub mod messages;
@@ -66,7 +67,9 @@ pub fn open_source(
 ) -> Result<Box<dyn MessageSource>, RosError> {
     match format {
         RosFormat::Bag1 => Ok(Box::new(ros1::BagReader::open(path, limits, skip_bad)?)),
-        RosFormat::Mcap => Ok(Box::new(mcap_file::McapReader::open(path, limits)?)),
+        RosFormat::Mcap => Ok(Box::new(mcap_file::McapReader::open(
+            path, limits, skip_bad,
+        )?)),
         RosFormat::Sqlite => open_sqlite(path, limits),
         RosFormat::Folder => {
             let parts = folder::folder_files(path)?;
@@ -93,7 +96,7 @@ pub fn open_source_for_topics(
     topics: &[String],
 ) -> Result<Box<dyn MessageSource>, RosError> {
     if format == RosFormat::Mcap
-        && let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, topics)?
+        && let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, skip_bad, topics)?
     {
         return Ok(Box::new(reader));
     }
@@ -113,7 +116,11 @@ fn open_sqlite(path: &Path, _limits: ReadLimits) -> Result<Box<dyn MessageSource
     })
 }
 
-/// The ROS format of a file or folder by its content; `None` for anything else.
+/// The fewest bytes of a recording's header that name it when the file ends there.
+const MIN_CUT_HEAD: usize = 4;
+
+/// The ROS format of a file or folder by its content; `None` for anything else. A file that
+/// ends inside a recording's header (at least its first 4 bytes) is an error naming the format.
 pub fn sniff(path: &Path) -> Result<Option<RosFormat>, RosError> {
     if path.is_dir() {
         return Ok(path
@@ -124,6 +131,22 @@ pub fn sniff(path: &Path) -> Result<Option<RosFormat>, RosError> {
     let mut head = [0u8; 16];
     let n = read_head(path, &mut head)?;
     let head = &head[..n];
+    // A file cut inside the header of a recording is that recording, cut, not a text log.
+    let magics: [(&[u8], &str); 3] = [
+        (b"#ROSBAG V", "a ROS 1 bag"),
+        (mcap_file::MCAP_MAGIC, "an MCAP file"),
+        (b"SQLite format 3\0", "a rosbag2 sqlite3 file"),
+    ];
+    if let Some((_, what)) = magics.iter().find(|(magic, _)| {
+        head.len() >= MIN_CUT_HEAD && head.len() < magic.len() && magic.starts_with(head)
+    }) {
+        return Err(RosError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!(
+                "{what} cut off: the file is {n} bytes, shorter than the format's header"
+            ),
+        });
+    }
     Ok(if head.starts_with(b"#ROSBAG V") {
         Some(RosFormat::Bag1)
     } else if head.starts_with(mcap_file::MCAP_MAGIC) {
@@ -148,4 +171,35 @@ fn read_head(path: &Path, head: &mut [u8]) -> Result<usize, RosError> {
         }
     }
     Ok(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A ROS file shorter than its header was read as a CARMEN log ("no FLASER lines").
+    #[test]
+    fn a_recording_cut_inside_its_header_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let cases: [(&[u8], &str); 3] = [
+            (b"#ROSBA", "a ROS 1 bag cut off: the file is 6 bytes"),
+            (
+                &mcap_file::MCAP_MAGIC[..5],
+                "an MCAP file cut off: the file is 5 bytes",
+            ),
+            (b"SQLite for", "a rosbag2 sqlite3 file cut off"),
+        ];
+        for (bytes, message) in cases {
+            let path = dir.path().join("cut");
+            std::fs::write(&path, bytes).unwrap();
+            let e = sniff(&path).unwrap_err().to_string();
+            assert!(e.contains(message), "{e}");
+        }
+        // Text that merely starts like a header is no recording.
+        for text in [&b"#RO"[..], b"# a comment\n", b""] {
+            let path = dir.path().join("text");
+            std::fs::write(&path, text).unwrap();
+            assert_eq!(sniff(&path).unwrap(), None);
+        }
+    }
 }

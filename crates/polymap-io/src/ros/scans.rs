@@ -70,6 +70,8 @@ pub struct RosStats {
     /// With [`RosScanOptions::witness_odometry`] and `skip_bad`: odometry messages that did
     /// not decode, skipped (not counted in `bad_messages`: the run asked for no odometry).
     pub odometry_bad_messages: u64,
+    /// What the container reader read past (a file cut off, and where it ends).
+    pub warnings: Vec<String>,
 }
 
 /// Streams the scans of one `LaserScan` topic in file order.
@@ -198,6 +200,9 @@ impl RosScanReader {
     pub fn stats(&self) -> RosStats {
         let mut stats = self.stats.clone();
         let (skipped, errors) = self.source.skipped();
+        stats
+            .warnings
+            .extend(self.source.warnings().iter().cloned());
         stats.bad_messages += skipped;
         for e in errors
             .iter()

@@ -127,4 +127,8 @@ pub trait MessageSource: Send {
     fn position(&self) -> u64;
     /// Damaged parts skipped (only when asked to skip bad input): count and first messages.
     fn skipped(&self) -> (u64, &[String]);
+    /// What the reader found odd but read past, for the user (a file cut off, and where).
+    fn warnings(&self) -> &[String] {
+        &[]
+    }
 }

@@ -202,15 +202,22 @@ fn degenerate_worlds_give_empty_or_tiny_runs() {
 }
 
 #[test]
-fn simulating_every_world_is_quick() {
+fn every_world_simulates_a_tour() {
     let t0 = Instant::now();
-    let scans: usize = World::catalogue()
-        .iter()
-        .map(|w| simulate(w, &SimParams::default(), 1).scans.len())
-        .sum();
-    let elapsed = t0.elapsed().as_secs_f64();
-    println!("{scans} scans in {elapsed:.2} s");
-    assert!(elapsed < 20.0, "{elapsed} s");
+    let mut scans = 0;
+    for w in World::catalogue() {
+        let run = simulate(&w, &SimParams::default(), 1);
+        assert!(
+            run.scans.len() >= 100,
+            "{}: {} scans",
+            run.world_name,
+            run.scans.len()
+        );
+        assert_eq!(run.scans.len(), run.true_poses.len(), "{}", run.world_name);
+        scans += run.scans.len();
+    }
+    // How long it takes is for the benches; printed here for a look.
+    println!("{scans} scans in {:.2} s", t0.elapsed().as_secs_f64());
 }
 
 #[test]

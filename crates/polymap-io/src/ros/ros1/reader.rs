@@ -41,6 +41,8 @@ pub struct BagReader {
     limits: ReadLimits,
     skip_bad: bool,
     skipped: u64,
+    /// What was read past: the file cut off, and where.
+    warnings: Vec<String>,
     skip_messages: Vec<String>,
     /// The message the last `advance` found.
     found: Option<Found>,
@@ -97,6 +99,7 @@ impl BagReader {
             limits,
             skip_bad,
             skipped: 0,
+            warnings: Vec::new(),
             skip_messages: Vec::new(),
             found: None,
         })
@@ -124,28 +127,28 @@ impl BagReader {
         }
     }
 
-    /// Reads the record header at `self.offset`; `None` at a clean end of file.
+    /// Reads the record header at `self.offset`; `None` at the end of the file, also where
+    /// the file ends inside the record (a recording cut off: said in [`Self::warnings`]).
     fn read_head(&mut self) -> Result<Option<RecordHead>, RosError> {
         let offset = self.offset;
         if offset >= self.size {
             return Ok(None);
         }
+        if offset + 4 > self.size {
+            return Ok(self.cut_off(offset));
+        }
         let header_len = self.read_u32(offset, "record header length")?;
         if header_len > MAX_HEADER_BYTES {
             return Err(self.truncated(offset, format!("record header of {header_len} bytes")));
+        }
+        if offset + 8 + u64::from(header_len) > self.size {
+            return Ok(self.cut_off(offset));
         }
         let header = self.read_vec(offset, u64::from(header_len), "record header")?;
         let data_len = u64::from(self.read_u32(offset, "record data length")?);
         let end = offset + 8 + u64::from(header_len) + data_len;
         if end > self.size {
-            return Err(RosError::container(
-                &self.path,
-                offset,
-                format!(
-                    "the record ends at byte {end}, past the end of the file ({} bytes): truncated",
-                    self.size
-                ),
-            ));
+            return Ok(self.cut_off(offset));
         }
         self.offset = end;
         Ok(Some(RecordHead {
@@ -441,6 +444,21 @@ impl BagReader {
             .map_err(|e| RosError::io(&self.path, e))
     }
 
+    /// The file ends inside the record at `offset`: the messages before it are read, and the
+    /// cut said.
+    fn cut_off(&mut self, offset: u64) -> Option<RecordHead> {
+        self.warnings.push(format!(
+            "{}: the file ends at byte {}, inside the record that starts at byte {offset}: a \
+             recording cut off (as a crashed recorder leaves it); read up to that record ({} \
+             bytes lost)",
+            self.path.display(),
+            self.size,
+            self.size - offset
+        ));
+        self.offset = self.size;
+        None
+    }
+
     fn truncated(&self, at: u64, problem: String) -> RosError {
         RosError::container(
             &self.path,
@@ -528,5 +546,9 @@ impl MessageSource for BagReader {
 
     fn skipped(&self) -> (u64, &[String]) {
         (self.skipped, &self.skip_messages)
+    }
+
+    fn warnings(&self) -> &[String] {
+        &self.warnings
     }
 }
