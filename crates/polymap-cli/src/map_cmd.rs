@@ -202,7 +202,7 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let source = LogSource::open(&log, &options)?;
     let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (mut record, counts) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
+    let (mut record, counts, diag) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
     check_not_empty(&log_name, &record, counts.as_ref().map(|c| &c.1))?;
     let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
@@ -224,16 +224,6 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     let pruned = a
         .prune_contradicted
         .then(|| record.mapper.prune_contradicted());
-    let removed = folder
-        .remove_stale(&a.export, a.diagnostics)
-        .with_context(|| format!("{}: cannot remove old outputs", folder.path().display()))?;
-    if !removed.is_empty() {
-        eprintln!(
-            "polymap: removed {} from an earlier run in {} (not written by this run)",
-            removed.join(", "),
-            folder.path().display()
-        );
-    }
     let snapshot = snapshot(&log_name, &config, &record, a.svg_points, saved.as_ref());
     let reader = stats.as_ref().map_or(serde_json::Value::Null, reader_json);
     let every = [a.every, a.every_offset];
@@ -259,6 +249,23 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         }
     }
     let loop_nodes = record.mapper.loop_nodes();
+    // The write phase starts here, after every check that can fail without changing a file:
+    // from now on the folder is not one run's until the manifest says so. A run refused
+    // before (a log without scans) leaves the previous run's folder as it was, readable.
+    folder.begin_writing()?;
+    if let Some(w) = diag {
+        w.finish()?;
+    }
+    let removed = folder
+        .remove_stale(&a.export, a.diagnostics)
+        .with_context(|| format!("{}: cannot remove old outputs", folder.path().display()))?;
+    if !removed.is_empty() {
+        eprintln!(
+            "polymap: removed {} from an earlier run in {} (not written by this run)",
+            removed.join(", "),
+            folder.path().display()
+        );
+    }
     let written = folder.write_run(&RunFiles {
         snapshot: &snapshot,
         loop_nodes: &loop_nodes,
@@ -308,8 +315,16 @@ fn log_name(log: &Path, source: &LogSource) -> String {
         .to_string()
 }
 
-/// Runs the pipeline with the progress bar and the diagnostics file; returns the record and
-/// the reader's counts (`None` when interrupted).
+/// The record of a run, the reader's counts (`None` when interrupted) and the diagnostics
+/// written so far (to a temporary file, renamed into place in the write phase).
+type Mapped = (
+    RunRecord,
+    Option<(CarmenStats, LogStats)>,
+    Option<DiagnosticsWriter>,
+);
+
+/// Runs the pipeline with the progress bar and the diagnostics file; changes no file of the
+/// folder.
 fn map_source(
     source: LogSource,
     config: &Config,
@@ -317,7 +332,7 @@ fn map_source(
     folder: &RunFolder,
     stop: Arc<AtomicBool>,
     saved: Option<&SavedMap>,
-) -> Result<(RunRecord, Option<(CarmenStats, LogStats)>)> {
+) -> Result<Mapped> {
     let bar = progress_bar(a.quiet, source.size_bytes());
     let mut diag = match a.diagnostics {
         true => Some(DiagnosticsWriter::create(
@@ -370,14 +385,8 @@ fn map_source(
         Ok(())
     })?;
     bar.finish_and_clear();
-    // The write phase starts here: from now on the folder is not one run's until the manifest
-    // says so.
-    folder.begin_writing()?;
-    if let Some(w) = diag {
-        w.finish()?;
-    }
     let counts = outcome.source.map(|s| (s.carmen_stats(), s.stats()));
-    Ok((outcome.record, counts))
+    Ok((outcome.record, counts, diag))
 }
 
 /// The final map, trajectory and (with `--svg-points`) points for the pictures.

@@ -4,6 +4,7 @@ mod cli;
 mod datasets;
 mod fig7;
 mod hardening;
+mod hardening_folders;
 mod hardening_inputs;
 mod lifelong;
 mod merge;

@@ -1,0 +1,73 @@
+//! Run folders across failed, mixed and concurrent runs: a run that fails leaves the previous
+//! run's folder readable, `export` lists only what it wrote, readers hold the folder's lock
+//! while they read it.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use crate::support::{map_quietly, polymap, text};
+
+/// A simulated office log in `dir`.
+fn office_log(dir: &Path) -> PathBuf {
+    let o = polymap(&["simulate", "office", "-o", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    dir.join("office.clf")
+}
+
+fn o_str(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Every file of a folder with its size and a hash of its bytes, for a before-and-after
+/// comparison.
+fn contents(dir: &Path) -> Vec<(String, usize, u64)> {
+    use std::hash::{DefaultHasher, Hash, Hasher};
+    let mut all: Vec<(String, usize, u64)> = fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.is_file())
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            let bytes = fs::read(&p).unwrap();
+            let mut h = DefaultHasher::new();
+            bytes.hash(&mut h);
+            (name, bytes.len(), h.finish())
+        })
+        .collect();
+    all.sort();
+    all
+}
+
+/// A run refused after mapping but before writing (here: a log without a single scan) leaves
+/// the previous run's folder byte for byte as it was, and readable: the manifest that marks a
+/// folder as being written is written only once the first file is about to change.
+#[test]
+fn a_run_refused_before_writing_leaves_the_previous_folder_readable() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = office_log(dir.path());
+    let run = dir.path().join("run");
+    let o = map_quietly(&log, &run, &["--max-scans", "60", "--diagnostics"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let before = contents(&run);
+    let empty = dir.path().join("empty.clf");
+    fs::write(&empty, "ODOM 0 0 0 0 0 0 1.0 host 1.0\n").unwrap();
+    for extra in [&[][..], &["--diagnostics"][..], &["--export", "png"][..]] {
+        let o = map_quietly(&empty, &run, extra);
+        assert!(!o.status.success(), "{}", text(&o));
+        assert!(text(&o).contains("no laser scans"), "{}", text(&o));
+        assert_eq!(contents(&run), before, "{extra:?}");
+    }
+    let o = polymap(&["export", o_str(&run), "--format", "png"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let other = dir.path().join("other");
+    let args = ["--max-scans", "10", "--initial-pose", "0,0,0"];
+    let o = polymap(
+        &[
+            &["localize", o_str(&log), "--map", o_str(&run), "-o"][..],
+            &[o_str(&other), "-q"],
+            &args,
+        ]
+        .concat(),
+    );
+    assert!(o.status.success(), "{}", text(&o));
+}
