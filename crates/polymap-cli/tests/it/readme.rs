@@ -214,3 +214,90 @@ fn the_guide_and_the_design_stay_short() {
         );
     }
 }
+
+/// Places in `text` where it speaks of the project's own making: the words "session(s)" or
+/// "issue(s)" followed by a number (history is git's, not the documents').
+fn history_words(text: &str) -> Vec<String> {
+    let lower = text.to_lowercase();
+    let mut found = Vec::new();
+    for word in ["session ", "sessions ", "issue ", "issues "] {
+        let mut from = 0;
+        while let Some(i) = lower[from..].find(word) {
+            let at = from + i;
+            let after = &lower[at + word.len()..];
+            let starts_word = at == 0 || !lower[..at].ends_with(|c: char| c.is_alphanumeric());
+            if starts_word && after.starts_with(|c: char| c.is_ascii_digit()) {
+                let end = (at + word.len() + 12).min(lower.len());
+                let end = (end..=lower.len())
+                    .find(|&e| lower.is_char_boundary(e))
+                    .unwrap_or(lower.len());
+                found.push(text[at..end].to_string());
+            }
+            from = at + word.len();
+        }
+    }
+    found
+}
+
+fn text_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries.flatten() {
+        let path = entry.path();
+        let name = entry.file_name();
+        let name = name.to_string_lossy();
+        if name.starts_with('.') || name == "target" {
+            continue;
+        }
+        if path.is_dir() {
+            text_files(&path, out);
+        } else if [".rs", ".md", ".toml", ".py"]
+            .iter()
+            .any(|e| name.ends_with(e))
+            || path.parent().is_some_and(|p| p.ends_with("scripts"))
+        {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn the_tree_speaks_of_the_software_not_of_its_making() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..");
+    let mut files = Vec::new();
+    for part in ["README.md", "CHANGELOG.md", "docs", "crates", "scripts"] {
+        let path = root.join(part);
+        if path.is_dir() {
+            text_files(&path, &mut files);
+        } else {
+            files.push(path);
+        }
+    }
+    assert!(files.len() > 50, "only {} files found", files.len());
+    let mut places = Vec::new();
+    for file in &files {
+        let Ok(text) = fs::read_to_string(file) else {
+            continue;
+        };
+        for words in history_words(&text) {
+            places.push(format!("{}: \"{words}\"", file.display()));
+        }
+    }
+    assert!(
+        places.is_empty(),
+        "say what the code does and why; history is git's:\n{}",
+        places.join("\n")
+    );
+}
+
+#[test]
+fn history_words_are_found_and_plain_words_are_not() {
+    // Put together here so that this file does not hold the words it looks for.
+    assert_eq!(
+        history_words(&format!("since Session {} the window", 12)).len(),
+        1
+    );
+    assert_eq!(history_words(&format!("(issue {} item 4)", 10)).len(), 1);
+    assert!(history_words("a session of mapping; issue: none; tissue 3").is_empty());
+}
