@@ -54,18 +54,22 @@ pub fn run(a: &ExportArgs) -> Result<()> {
 }
 
 /// Lists the exports `written` in the run's manifest beside its files (a folder without a
-/// manifest stays without one: its files were never checked to be one run's).
+/// manifest stays without one: its files were never checked to be one run's). The other
+/// entries stay as they are: export checked only the files it reads, so a file it neither
+/// read nor wrote, changed since the run, must still show as not the one listed.
 fn add_to_manifest(run: &Path, written: &[PathBuf]) -> Result<()> {
-    let Some(manifest) = read_manifest(run)? else {
+    let Some(mut manifest) = read_manifest(run)? else {
         return Ok(());
     };
     let names: Vec<String> = written
         .iter()
         .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .chain(manifest.files.keys().cloned())
         .collect();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    write_manifest(run, &manifest_of(run, &manifest.run, &names)?)?;
+    manifest
+        .files
+        .extend(manifest_of(run, &manifest.run, &names)?.files);
+    write_manifest(run, &manifest)?;
     Ok(())
 }
 

@@ -71,3 +71,40 @@ fn a_run_refused_before_writing_leaves_the_previous_folder_readable() {
     );
     assert!(o.status.success(), "{}", text(&o));
 }
+
+/// `export` listed its files in the manifest by computing the size and CRC-32 of every file
+/// listed, so a file it never read (here another run's `loop_nodes.json`) was certified as the
+/// run's. It now adds entries for the files it wrote only; the folder stays refused as mixed.
+#[test]
+fn export_certifies_only_the_files_it_wrote() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = office_log(dir.path());
+    let (run, earlier) = (dir.path().join("run"), dir.path().join("earlier"));
+    for (out, scans) in [(&run, "60"), (&earlier, "30")] {
+        let o = map_quietly(&log, out, &["--max-scans", scans]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    fs::copy(earlier.join("loop_nodes.json"), run.join("loop_nodes.json")).unwrap();
+    let o = polymap(&["export", o_str(&run), "--format", "png"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let manifest = fs::read_to_string(run.join("manifest.json")).unwrap();
+    assert!(manifest.contains("map.png"), "{manifest}");
+    let other = dir.path().join("other");
+    let o = polymap(&[
+        "localize",
+        o_str(&log),
+        "--map",
+        o_str(&run),
+        "-o",
+        o_str(&other),
+        "-q",
+        "--max-scans",
+        "10",
+    ]);
+    assert!(!o.status.success(), "{}", text(&o));
+    assert!(
+        text(&o).contains("loop_nodes.json: not the file run"),
+        "{}",
+        text(&o)
+    );
+}
