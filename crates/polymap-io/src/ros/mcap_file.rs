@@ -88,6 +88,12 @@ impl McapReader {
         })
     }
 
+    /// Adds a warning for the user (what was found odd before reading, such as a damaged
+    /// summary read past).
+    pub fn warn(&mut self, warning: String) {
+        self.warnings.push(warning);
+    }
+
     /// The next message record: its channel and log time, its data in `self.data`.
     fn step(&mut self) -> Result<Option<(usize, i128, u64)>, RosError> {
         loop {

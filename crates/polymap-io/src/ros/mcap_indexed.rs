@@ -38,21 +38,23 @@ pub struct McapIndexedReader {
 }
 
 impl McapIndexedReader {
-    /// Opens `path` for the messages of `topics`; `Ok(None)` when the file has no summary with
-    /// chunk indexes (then only a linear read finds its messages). `skip_bad` skips damaged
-    /// chunks (counted and named) instead of failing.
+    /// Opens `path` for the messages of `topics`; [`Indexed::Linear`] when the file has no
+    /// summary with chunk indexes, or a damaged one (then only a linear read finds its
+    /// messages). `skip_bad` skips damaged chunks (counted and named) instead of failing.
     pub fn open(
         path: &Path,
         limits: ReadLimits,
         skip_bad: bool,
         topics: &[String],
-    ) -> Result<Option<Self>, RosError> {
-        let Some((summary, file)) = read_summary(path, limits)? else {
-            return Ok(None);
+    ) -> Result<Indexed, RosError> {
+        let (summary, file) = match read_summary(path, limits)? {
+            SummaryRead::Found(summary, file) => (summary, file),
+            SummaryRead::Missing => return Ok(Indexed::Linear(None)),
+            SummaryRead::Damaged(problem) => return Ok(Indexed::Linear(Some(problem))),
         };
         let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
         if summary.chunk_indexes.is_empty() {
-            return Ok(None);
+            return Ok(Indexed::Linear(None));
         }
         let (ids, connections) = summary_connections(&summary);
         let channels: HashMap<u16, usize> =
@@ -73,7 +75,7 @@ impl McapIndexedReader {
                     || c.message_index_offsets.keys().any(|id| wanted.contains(id))
             })
             .collect();
-        Ok(Some(McapIndexedReader {
+        Ok(Indexed::Reader(Box::new(McapIndexedReader {
             file,
             path: path.to_path_buf(),
             chunks,
@@ -90,7 +92,7 @@ impl McapIndexedReader {
             data: Vec::new(),
             found: None,
             position: 0,
-        }))
+        })))
     }
 
     /// Reads the chunk record `index` describes and takes in its records; a damaged chunk is
@@ -146,9 +148,43 @@ impl McapIndexedReader {
     }
 }
 
-/// Reads an MCAP file's summary section; `None` when it has none or it cannot be read. Returns
-/// the open file too.
-fn read_summary(path: &Path, limits: ReadLimits) -> Result<Option<(Summary, File)>, RosError> {
+/// What [`McapIndexedReader::open`] found.
+pub enum Indexed {
+    /// The reader of the chunks that hold the topics.
+    Reader(Box<McapIndexedReader>),
+    /// No usable summary: the file is to be read linearly; with the problem found in a
+    /// damaged summary, for a warning.
+    Linear(Option<String>),
+}
+
+impl Indexed {
+    /// The indexed reader, if the summary allows one.
+    pub fn reader(self) -> Option<McapIndexedReader> {
+        match self {
+            Indexed::Reader(r) => Some(*r),
+            Indexed::Linear(_) => None,
+        }
+    }
+}
+
+/// What [`read_summary`] found.
+enum SummaryRead {
+    /// The summary, checked, and the open file.
+    Found(Box<Summary>, File),
+    /// No summary (an unfinished recording, or one written without).
+    Missing,
+    /// A summary that fails its CRC or does not agree with itself: what is wrong.
+    Damaged(String),
+}
+
+/// Size of the footer record (opcode, length, summary start, summary offset start, CRC).
+const FOOTER_RECORD_BYTES: u64 = 1 + 8 + 8 + 8 + 4;
+
+/// Reads an MCAP file's summary section and checks it: the footer's summary CRC where it has
+/// one, and the statistics' chunk count against the chunk indexes. The `mcap` crate's summary
+/// reader checks neither and passes over records it does not know, so one flipped bit in an
+/// opcode would drop a chunk index, and with it a chunk, in silence.
+fn read_summary(path: &Path, limits: ReadLimits) -> Result<SummaryRead, RosError> {
     let mut file = File::open(path).map_err(|e| RosError::io(path, e))?;
     let size = file.metadata().map_err(|e| RosError::io(path, e))?.len();
     let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
@@ -159,7 +195,7 @@ fn read_summary(path: &Path, limits: ReadLimits) -> Result<Option<(Summary, File
     while let Some(event) = reader.next_event() {
         // A damaged or missing summary (an unfinished recording): the linear reader takes over.
         let Ok(event) = event else {
-            return Ok(None);
+            return Ok(SummaryRead::Missing);
         };
         match event {
             SummaryReadEvent::ReadRequest(n) => {
@@ -173,7 +209,68 @@ fn read_summary(path: &Path, limits: ReadLimits) -> Result<Option<(Summary, File
             }
         }
     }
-    Ok(reader.finish().map(|summary| (summary, file)))
+    let Some(summary) = reader.finish() else {
+        return Ok(SummaryRead::Missing);
+    };
+    if let Some(problem) =
+        summary_crc_problem(&mut file, size).map_err(|e| RosError::io(path, e))?
+    {
+        return Ok(SummaryRead::Damaged(problem));
+    }
+    if let Some(stats) = &summary.stats
+        && u64::from(stats.chunk_count) != summary.chunk_indexes.len() as u64
+    {
+        return Ok(SummaryRead::Damaged(format!(
+            "the summary's statistics count {} chunks, its chunk indexes list {}",
+            stats.chunk_count,
+            summary.chunk_indexes.len()
+        )));
+    }
+    Ok(SummaryRead::Found(Box::new(summary), file))
+}
+
+/// Checks the summary section against the footer's CRC (per the MCAP specification: over the
+/// bytes from the summary's start through the footer's `summary_offset_start` field); `None`
+/// when it matches or the footer carries none (a CRC of 0).
+fn summary_crc_problem(file: &mut File, size: u64) -> std::io::Result<Option<String>> {
+    let magic = super::mcap_file::MCAP_MAGIC.len() as u64;
+    let Some(footer_at) = size.checked_sub(magic + FOOTER_RECORD_BYTES) else {
+        return Ok(None);
+    };
+    let mut footer = [0u8; FOOTER_RECORD_BYTES as usize];
+    file.seek(SeekFrom::Start(footer_at))?;
+    file.read_exact(&mut footer)?;
+    let u64_at = |at: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&footer[at..at + 8]);
+        u64::from_le_bytes(b)
+    };
+    let summary_start = u64_at(9);
+    let mut crc = [0u8; 4];
+    crc.copy_from_slice(&footer[25..29]);
+    let expected = u32::from_le_bytes(crc);
+    if expected == 0 || summary_start == 0 || summary_start > footer_at {
+        return Ok(None);
+    }
+    let end = size - magic - 4;
+    file.seek(SeekFrom::Start(summary_start))?;
+    let mut hasher = crc32fast::Hasher::new();
+    let mut rest = file.take(end - summary_start);
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = rest.read(&mut buf)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    let found = hasher.finalize();
+    Ok((found != expected).then(|| {
+        format!(
+            "the summary section (bytes {summary_start} to {end}) fails its CRC (the footer says \
+             {expected:08x}, the bytes give {found:08x})"
+        )
+    }))
 }
 
 /// The summary's channels in id order, as connections.
@@ -204,7 +301,7 @@ pub fn summary_topics(
     path: &Path,
     limits: ReadLimits,
 ) -> Result<Option<Vec<TopicSummary>>, RosError> {
-    let Some((summary, _)) = read_summary(path, limits)? else {
+    let SummaryRead::Found(summary, _) = read_summary(path, limits)? else {
         return Ok(None);
     };
     let Some(stats) = &summary.stats else {

@@ -95,10 +95,20 @@ pub fn open_source_for_topics(
     skip_bad: bool,
     topics: &[String],
 ) -> Result<Box<dyn MessageSource>, RosError> {
-    if format == RosFormat::Mcap
-        && let Some(reader) = mcap_indexed::McapIndexedReader::open(path, limits, skip_bad, topics)?
-    {
-        return Ok(Box::new(reader));
+    if format == RosFormat::Mcap {
+        return match mcap_indexed::McapIndexedReader::open(path, limits, skip_bad, topics)? {
+            mcap_indexed::Indexed::Reader(reader) => Ok(reader),
+            mcap_indexed::Indexed::Linear(None) => open_source(path, format, limits, skip_bad),
+            // A damaged summary is read past: the linear reader checks every chunk itself.
+            mcap_indexed::Indexed::Linear(Some(problem)) => {
+                let mut reader = mcap_file::McapReader::open(path, limits, skip_bad)?;
+                reader.warn(format!(
+                    "{}: {problem}: read without it, every chunk in file order",
+                    path.display()
+                ));
+                Ok(Box::new(reader))
+            }
+        };
     }
     open_source(path, format, limits, skip_bad)
 }

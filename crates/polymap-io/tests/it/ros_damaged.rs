@@ -168,3 +168,62 @@ fn a_cut_recording_yields_the_scans_before_the_cut_with_a_warning() {
         );
     }
 }
+
+/// The records `(offset, opcode)` of an MCAP file's summary section, as its footer places it.
+fn summary_records(bytes: &[u8]) -> Vec<(usize, u8)> {
+    let footer = bytes.len() - 8 - 29;
+    let mut at = u64::from_le_bytes(bytes[footer + 9..footer + 17].try_into().unwrap()) as usize;
+    let mut records = Vec::new();
+    while at < footer {
+        let length = u64::from_le_bytes(bytes[at + 1..at + 9].try_into().unwrap()) as usize;
+        records.push((at, bytes[at]));
+        at += 9 + length;
+    }
+    records
+}
+
+/// One flipped bit in the opcode of a chunk index (0x08 to 0x88) made the summary reader pass
+/// over it as an unknown record, and its chunk was never read: scans lost with no word. The
+/// summary is now checked by the footer's CRC and, where the footer has none, by the
+/// statistics' chunk count; a summary that fails either is read past with a warning, and the
+/// linear reader, which checks every chunk, reads every scan.
+#[test]
+fn a_damaged_summary_is_read_past_with_a_warning_and_loses_no_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = scans(600);
+    let path = dir.path().join("whole.mcap");
+    write_mcap(&path, &written, McapCompression::Zstd).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let indexes: Vec<usize> = summary_records(&bytes)
+        .into_iter()
+        .filter(|&(_, opcode)| opcode == 0x08)
+        .map(|(at, _)| at)
+        .collect();
+    assert!(indexes.len() >= 3, "{} chunk indexes", indexes.len());
+    let crc_at = bytes.len() - 8 - 4;
+    assert_ne!(
+        &bytes[crc_at..crc_at + 4],
+        &[0; 4],
+        "the writer writes a CRC"
+    );
+    // With the footer's CRC, then without it (a CRC of 0: only the chunk count tells).
+    for (crc, said) in [(true, "fails its CRC"), (false, "chunk indexes list")] {
+        let mut damaged = bytes.clone();
+        damaged[indexes[1]] ^= 0x80;
+        if !crc {
+            damaged[crc_at..crc_at + 4].fill(0);
+        }
+        let flipped = dir.path().join("flipped.mcap");
+        std::fs::write(&flipped, &damaged).unwrap();
+        for skip in [false, true] {
+            let (scans, stats) = read(&flipped, skip).unwrap();
+            assert_eq!(scans.len(), written.len(), "crc {crc}, skip {skip}");
+            assert!(kept(&scans, &written));
+            let warned = stats.warnings.join(" ");
+            assert!(
+                warned.contains(said) && warned.contains("every chunk in file order"),
+                "crc {crc}: {warned}"
+            );
+        }
+    }
+}

@@ -354,6 +354,7 @@ fn mcap_chunks_without_the_laser_topic_are_skipped() {
     let mut r =
         McapIndexedReader::open(&path, ReadLimits::default(), false, &["/scan".to_string()])
             .unwrap()
+            .reader()
             .expect("an indexed file");
     let mut n = 0;
     while r.advance().unwrap() {
