@@ -54,12 +54,21 @@ pub struct McapReader {
     found: Option<(usize, i128, u64)>,
     /// Offset of the chunk whose records are pending.
     chunk_offset: u64,
+    /// Whether the file ends with the magic bytes, as a whole file does: then a record that
+    /// runs past the end is damage, not a cut.
+    ends_with_magic: bool,
+    /// The opcode of the last whole record read.
+    last_opcode: u8,
+    /// Whether the data section's end was read (what follows is the summary: no messages).
+    data_ended: bool,
 }
 
 impl McapReader {
     /// Opens an MCAP file; `skip_bad` skips damaged chunks and records instead of failing.
     pub fn open(path: &Path, limits: ReadLimits, skip_bad: bool) -> Result<Self, RosError> {
-        let file = crate::input_file::open_regular(path).map_err(|e| RosError::io(path, e))?;
+        let mut file = crate::input_file::open_regular(path).map_err(|e| RosError::io(path, e))?;
+        let ends_with_magic =
+            ends_with(&mut file, MCAP_MAGIC).map_err(|e| RosError::io(path, e))?;
         let limit = usize::try_from(limits.max_record_bytes).unwrap_or(usize::MAX);
         // Chunks come whole and are checked on their own (`mcap_chunk`), so that a bad one can
         // be skipped and its messages are never handed out.
@@ -85,6 +94,9 @@ impl McapReader {
             warnings: Vec::new(),
             found: None,
             chunk_offset: 0,
+            ends_with_magic,
+            last_opcode: 0,
+            data_ended: false,
         })
     }
 
@@ -137,6 +149,8 @@ impl McapReader {
                 LinearReadEvent::Record { data, opcode } => {
                     let offset = self.records_end;
                     self.records_end += 9 + data.len() as u64;
+                    self.last_opcode = opcode;
+                    self.data_ended |= opcode == op::DATA_END;
                     let records = if opcode == op::CHUNK {
                         self.chunks += 1;
                         let place = ChunkPlace {
@@ -177,32 +191,49 @@ impl McapReader {
         Ok(())
     }
 
-    /// The reader stopped on `error`: a file that ends early (a recording cut off) ends the
-    /// messages with a warning; anything else is an error (with `skip_bad`, a warning that
-    /// the rest of the file is not read).
+    /// The reader stopped on `error`: a file that ends early (a recording cut off: it does not
+    /// end with the magic bytes) ends the messages with a warning; anything else, a record
+    /// that runs past the end of a whole file included, is an error (with `skip_bad`, a
+    /// counted skip of the rest of the file).
     fn ended_early(&mut self, error: McapError) -> Result<(), RosError> {
         let size = self.position;
+        let at = self.records_end;
+        let rest = size.saturating_sub(at);
         let message = match error {
-            McapError::UnexpectedEof if self.records_end >= size => format!(
+            McapError::UnexpectedEof if self.ends_with_magic => {
+                let what = format!("the record at byte {at}");
+                let problem = format!(
+                    "it runs past the end of the file (byte {size}), though the file ends with \
+                     MCAP's magic bytes as a whole file does: a damaged length; the rest of the \
+                     file ({rest} bytes) cannot be read"
+                );
+                return self.bad(at, &what, &problem);
+            }
+            McapError::UnexpectedEof if at >= size && self.last_opcode == op::FOOTER => format!(
+                "the file ends at byte {size} right after its footer, without the closing magic \
+                 bytes: cut off after its last message; every message read"
+            ),
+            McapError::UnexpectedEof if at >= size => format!(
                 "the file ends at byte {size} without its footer: a recording cut off (as a \
                  crashed recorder leaves it); read up to there"
             ),
+            McapError::UnexpectedEof if self.data_ended => format!(
+                "the file ends at byte {size}, inside its summary section (the record that \
+                 starts at byte {at}): cut off after its last message; every message read"
+            ),
             McapError::UnexpectedEof => format!(
-                "the file ends at byte {size}, inside the record that starts at byte {}: a \
-                 recording cut off; read up to that record ({} bytes lost)",
-                self.records_end,
-                size - self.records_end
+                "the file ends at byte {size}, inside the record that starts at byte {at}: a \
+                 recording cut off; read up to that record ({rest} bytes lost)"
             ),
-            other if self.skip_bad => format!(
-                "cannot read on after byte {}: {other}; the rest of the file ({} bytes) is not \
-                 read",
-                self.records_end,
-                size.saturating_sub(self.records_end)
-            ),
+            other if self.skip_bad => {
+                let what = format!("the data after byte {at}");
+                let problem = format!("{other}; the rest of the file ({rest} bytes) is not read");
+                return self.bad(at, &what, &problem);
+            }
             other => {
                 return Err(RosError::container(
                     &self.path,
-                    self.records_end,
+                    at,
                     format!("{other} (in the data read up to byte {size})"),
                 ));
             }
@@ -211,6 +242,21 @@ impl McapReader {
             .push(format!("{}: {message}", self.path.display()));
         Ok(())
     }
+}
+
+/// Whether `file` ends with `magic` (its read position is left at the start).
+fn ends_with(file: &mut File, magic: &[u8]) -> std::io::Result<bool> {
+    use std::io::{Seek, SeekFrom};
+    let size = file.metadata()?.len();
+    let n = magic.len() as u64;
+    let mut tail = vec![0u8; magic.len()];
+    let whole = size >= 2 * n && {
+        file.seek(SeekFrom::Start(size - n))?;
+        file.read_exact(&mut tail)?;
+        tail == magic
+    };
+    file.seek(SeekFrom::Start(0))?;
+    Ok(whole)
 }
 
 /// Messages of skipped chunks and records kept for the report.

@@ -1,5 +1,5 @@
-//! Damaged MCAP files, as a crashed recorder, a bad disk or a bad copy leave them: bit flips
-//! in chunks and cuts anywhere, seeded. A damaged file never yields changed scans: it is an
+//! Damaged MCAP files and bags, as a crashed recorder, a bad disk or a bad copy leave them: bit
+//! flips in chunks and cuts anywhere, seeded. A damaged file never yields changed scans: it is an
 //! error, or its damaged chunks are skipped (counted) with `--skip-bad-input`, or, cut off, it
 //! yields the scans before the cut with a warning saying where it ends.
 
@@ -7,8 +7,9 @@ use std::path::Path;
 
 use polymap::scan::RangeScan;
 use polymap_io::log::{LogError, LogOptions, LogSource, LogStats};
-use polymap_io::ros::mcap_file::McapCompression;
-use polymap_io::ros::write_mcap;
+use polymap_io::ros::mcap_file::{McapCompression, McapReader};
+use polymap_io::ros::ros1::BagCompression;
+use polymap_io::ros::{MessageSource, ReadLimits, write_bag, write_mcap};
 
 use crate::ros_written::scans;
 
@@ -225,5 +226,125 @@ fn a_damaged_summary_is_read_past_with_a_warning_and_loses_no_scan() {
                 "crc {crc}: {warned}"
             );
         }
+    }
+}
+
+/// The offsets of the chunk records of a bag (format 2.0), in file order.
+fn bag_chunks(bytes: &[u8]) -> Vec<usize> {
+    let u32_at = |at: usize| u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+    let mut at = 13;
+    let mut chunks = Vec::new();
+    while at + 8 <= bytes.len() {
+        let header_len = u32_at(at);
+        let header = &bytes[at + 4..at + 4 + header_len];
+        if header.windows(4).any(|w| w == b"op=\x05") {
+            chunks.push(at);
+        }
+        at += 8 + header_len + u32_at(at + 4 + header_len);
+    }
+    chunks
+}
+
+/// One flipped bit in a chunk's length field of a whole, indexed bag made the chunk run past
+/// the end of the file, and the bag was read as a recording cut off: a warning, a third of the
+/// scans lost, exit 0. A bag whose header places its index within the file is whole, so the
+/// record is damaged: an error, or under --skip-bad-input a counted skip.
+#[test]
+fn a_damaged_length_in_a_whole_bag_is_an_error_not_a_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = scans(1200);
+    let path = dir.path().join("whole.bag");
+    write_bag(&path, &written, BagCompression::Lz4).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let chunks = bag_chunks(&bytes);
+    assert!(chunks.len() >= 3, "{} chunks", chunks.len());
+    let at = chunks[1];
+    let header_len = u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+    let mut damaged = bytes.clone();
+    damaged[at + 4 + header_len + 3] ^= 0x10;
+    let flipped = dir.path().join("flipped.bag");
+    std::fs::write(&flipped, &damaged).unwrap();
+    let e = read(&flipped, false).unwrap_err().to_string();
+    assert!(
+        e.contains("flipped.bag") && e.contains("runs past the end of the file"),
+        "{e}"
+    );
+    let (scans, stats) = read(&flipped, true).unwrap();
+    assert!(scans.len() < written.len() && kept(&scans, &written));
+    assert_eq!(stats.bad_records, 1, "{stats:?}");
+    assert!(
+        stats.bad_record_errors[0].contains("a damaged length"),
+        "{stats:?}"
+    );
+    // The same bag cut inside its index: every scan read, the cut said, nothing said lost.
+    let cut = dir.path().join("cut.bag");
+    std::fs::write(&cut, &bytes[..bytes.len() - 10]).unwrap();
+    let (scans, stats) = read(&cut, false).unwrap();
+    assert_eq!(scans.len(), written.len());
+    let said = stats.warnings.join(" ");
+    assert!(
+        said.contains("inside its index") && !said.contains("lost"),
+        "{said}"
+    );
+}
+
+/// Every message of an MCAP file, read linearly.
+fn read_linear(path: &Path, skip_bad: bool) -> (usize, Vec<String>, u64) {
+    let mut r = McapReader::open(path, ReadLimits::default(), skip_bad).unwrap();
+    let mut n = 0;
+    loop {
+        match r.advance() {
+            Ok(true) => n += 1,
+            Ok(false) => break,
+            Err(e) => return (n, vec![format!("error: {e}")], r.skipped().0),
+        }
+    }
+    (n, r.warnings().to_vec(), r.skipped().0)
+}
+
+/// The same flip in an MCAP chunk's length field was read as a recording cut off. A file that
+/// ends with MCAP's magic bytes is whole, so a record that runs past its end is damage: an
+/// error, or under --skip-bad-input a counted skip. A file cut right after its footer, or
+/// inside its summary, loses no message and is said to.
+#[test]
+fn a_damaged_length_in_a_whole_mcap_is_an_error_not_a_cut() {
+    let dir = tempfile::tempdir().unwrap();
+    let written = scans(600);
+    let path = dir.path().join("whole.mcap");
+    write_mcap(&path, &written, McapCompression::Zstd).unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    let whole = read_linear(&path, false);
+    assert!(whole.0 >= written.len() && whole.1.is_empty(), "{whole:?}");
+    let chunks = chunk_records(&bytes);
+    let mut damaged = bytes.clone();
+    damaged[chunks[1].0 + 3] ^= 0x10;
+    let flipped = dir.path().join("flipped.mcap");
+    std::fs::write(&flipped, &damaged).unwrap();
+    let (_, said, _) = read_linear(&flipped, false);
+    let said = said.join(" ");
+    assert!(
+        said.starts_with("error: ") && said.contains("a damaged length"),
+        "{said}"
+    );
+    let (n, said, skipped) = read_linear(&flipped, true);
+    assert!(
+        n < whole.0 && skipped == 1,
+        "{n} read, {skipped} skipped: {said:?}"
+    );
+    let footer_end = bytes.len() - 8;
+    let summary_start = summary_records(&bytes)[0].0 + 5;
+    for (cut, says) in [
+        (footer_end, "right after its footer"),
+        (summary_start, "inside its summary section"),
+    ] {
+        let path = dir.path().join("cut.mcap");
+        std::fs::write(&path, &bytes[..cut]).unwrap();
+        let (n, said, _) = read_linear(&path, false);
+        let said = said.join(" ");
+        assert_eq!(n, whole.0, "{said}");
+        assert!(
+            said.contains(says) && said.contains("every message read") && !said.contains("lost"),
+            "cut at {cut}: {said}"
+        );
     }
 }

@@ -43,6 +43,9 @@ pub struct BagReader {
     skipped: u64,
     /// What was read past: the file cut off, and where.
     warnings: Vec<String>,
+    /// Where the bag header places the index (0 while a recorder writes the bag; `None`
+    /// before the header is read).
+    index_pos: Option<u64>,
     skip_messages: Vec<String>,
     /// The message the last `advance` found.
     found: Option<Found>,
@@ -100,6 +103,7 @@ impl BagReader {
             skip_bad,
             skipped: 0,
             warnings: Vec::new(),
+            index_pos: None,
             skip_messages: Vec::new(),
             found: None,
         })
@@ -128,27 +132,28 @@ impl BagReader {
     }
 
     /// Reads the record header at `self.offset`; `None` at the end of the file, also where
-    /// the file ends inside the record (a recording cut off: said in [`Self::warnings`]).
+    /// the file ends inside the record and the bag is unfinished (a recording cut off: said
+    /// in [`Self::warnings`]; see [`Self::ran_off`]).
     fn read_head(&mut self) -> Result<Option<RecordHead>, RosError> {
         let offset = self.offset;
         if offset >= self.size {
             return Ok(None);
         }
         if offset + 4 > self.size {
-            return Ok(self.cut_off(offset));
+            return self.ran_off(offset);
         }
         let header_len = self.read_u32(offset, "record header length")?;
         if header_len > MAX_HEADER_BYTES {
             return Err(self.truncated(offset, format!("record header of {header_len} bytes")));
         }
         if offset + 8 + u64::from(header_len) > self.size {
-            return Ok(self.cut_off(offset));
+            return self.ran_off(offset);
         }
         let header = self.read_vec(offset, u64::from(header_len), "record header")?;
         let data_len = u64::from(self.read_u32(offset, "record data length")?);
         let end = offset + 8 + u64::from(header_len) + data_len;
         if end > self.size {
-            return Ok(self.cut_off(offset));
+            return self.ran_off(offset);
         }
         self.offset = end;
         Ok(Some(RecordHead {
@@ -203,7 +208,16 @@ impl BagReader {
                 self.seek(self.offset)?;
                 Ok(None)
             }
-            // The bag header, chunk info and unknown records: not needed.
+            op::BAG_HEADER => {
+                let index_pos = fields
+                    .require("index_pos")
+                    .ok()
+                    .and_then(|v| <[u8; 8]>::try_from(v).ok().map(u64::from_le_bytes));
+                self.index_pos = Some(index_pos.unwrap_or(0));
+                self.seek(self.offset)?;
+                Ok(None)
+            }
+            // Chunk info and unknown records: not needed.
             _ => {
                 self.seek(self.offset)?;
                 Ok(None)
@@ -444,19 +458,44 @@ impl BagReader {
             .map_err(|e| RosError::io(&self.path, e))
     }
 
-    /// The file ends inside the record at `offset`: the messages before it are read, and the
-    /// cut said.
-    fn cut_off(&mut self, offset: u64) -> Option<RecordHead> {
-        self.warnings.push(format!(
-            "{}: the file ends at byte {}, inside the record that starts at byte {offset}: a \
-             recording cut off (as a crashed recorder leaves it); read up to that record ({} \
-             bytes lost)",
-            self.path.display(),
-            self.size,
-            self.size - offset
-        ));
-        self.offset = self.size;
-        None
+    /// The record at `offset` runs past the end of the file. That is a cut only where the
+    /// bag is unfinished: its header places no index (0, as a recorder leaves it until it
+    /// closes the bag) or one beyond the end of the file (a copy cut off); the messages before
+    /// it are read and the cut said. A cut inside the index loses no message. In a whole bag
+    /// (its index within the file, after this record) a record that runs past the end has a
+    /// damaged length: an error, or with `skip_bad` a counted skip of the rest of the file.
+    fn ran_off(&mut self, offset: u64) -> Result<Option<RecordHead>, RosError> {
+        let (size, path) = (self.size, self.path.display());
+        self.offset = size;
+        let index_pos = self.index_pos.unwrap_or(0);
+        if index_pos == 0 || index_pos >= size {
+            self.warnings.push(format!(
+                "{path}: the file ends at byte {size}, inside the record that starts at byte \
+                 {offset}: a recording cut off (as a crashed recorder leaves it); read up to \
+                 that record ({} bytes lost)",
+                size - offset
+            ));
+            return Ok(None);
+        }
+        if offset >= index_pos {
+            self.warnings.push(format!(
+                "{path}: the file ends at byte {size}, inside its index (the record that starts \
+                 at byte {offset}): cut off after its last message; every message read"
+            ));
+            return Ok(None);
+        }
+        let e = RosError::container(
+            &self.path,
+            offset,
+            format!(
+                "the record runs past the end of the file (byte {size}), though the bag is \
+                 whole (its header places the index at byte {index_pos}): a damaged length; \
+                 the rest of the file ({} bytes) cannot be read",
+                size - offset
+            ),
+        );
+        self.skip_or_fail(e)?;
+        Ok(None)
     }
 
     fn truncated(&self, at: u64, problem: String) -> RosError {
