@@ -24,9 +24,10 @@ use crate::quote::quoted;
 
 pub fn run(a: &ExportArgs) -> Result<()> {
     let read = ["map.json", "trajectory.tum", "summary.json", "history.json"];
-    crate::outputs::check_run_folder(&a.run, &read)?;
-    // Held while the exports are written: no run may write the folder meanwhile.
+    // Held from the check until the exports are written: no run may write the folder
+    // meanwhile.
     let _lock = FolderLock::exclusive(&a.run)?;
+    crate::outputs::check_locked_run_folder(&a.run, &read)?;
     let map = read_map_json(a.run.join("map.json"))?;
     let trajectory = read_tum(a.run.join("trajectory.tum"))?;
     let snapshot = MapSnapshot::from_files(&map, trajectory);

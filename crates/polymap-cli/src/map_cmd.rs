@@ -22,6 +22,7 @@ use polymap_io::snapshot::{MapSnapshot, Polyline};
 use polymap_pipeline::folder::{
     DIAGNOSTICS_FILE, RunFiles, RunFolder, check_output_apart, percentiles_ms, summary_json,
 };
+use polymap_pipeline::manifest::FolderLock;
 use polymap_pipeline::pipeline::{self, PipelineOptions, RunRecord, ScanEvent};
 use serde_json::json;
 
@@ -49,11 +50,14 @@ struct SavedMap {
     /// The saved run's loop-closure nodes (empty when it saved none).
     nodes: Vec<SavedNode>,
     role: MapRole,
+    /// The folder's lock for reading, held from the check of its files for the whole run: no
+    /// run writes the map while it is read and used.
+    _lock: Option<FolderLock>,
 }
 
 impl SavedMap {
     fn read(dir: &Path, role: MapRole) -> Result<SavedMap> {
-        crate::outputs::check_run_folder(dir, &["map.json", LOOP_NODES_FILE])?;
+        let lock = crate::outputs::check_run_folder(dir, &["map.json", LOOP_NODES_FILE])?;
         let map = read_map_json(dir.join("map.json")).with_context(|| {
             format!(
                 "cannot read the saved map in {}",
@@ -84,6 +88,7 @@ impl SavedMap {
             map,
             nodes,
             role,
+            _lock: lock,
         })
     }
 

@@ -44,6 +44,8 @@ struct Input {
     /// The robot's positions from `trajectory.tum` (empty without it), map frame.
     path: Vec<Vec2>,
     scans: u32,
+    /// The folder's lock for reading, held until the merge is written.
+    _lock: Option<polymap_pipeline::manifest::FolderLock>,
 }
 
 pub fn run(a: &MergeArgs) -> Result<()> {
@@ -124,7 +126,7 @@ fn read_input(dir: &Path) -> Result<Input> {
     if !dir.is_dir() {
         bail!("{}: not a folder (a polymap map output)", shown(dir));
     }
-    crate::outputs::check_run_folder(dir, &["map.json", "trajectory.tum"])?;
+    let lock = crate::outputs::check_run_folder(dir, &["map.json", "trajectory.tum"])?;
     let map = read_map_json(dir.join("map.json"))?;
     let segments = map.map_segments();
     if segments.is_empty() {
@@ -146,6 +148,7 @@ fn read_input(dir: &Path) -> Result<Input> {
         segments,
         scans,
         path,
+        _lock: lock,
     })
 }
 

@@ -47,14 +47,31 @@ pub fn write_file(path: &Path, bytes: &[u8]) -> Result<()> {
 /// Checks that the files `names` of the run folder `dir`, read as input, are one run's (see
 /// `polymap_pipeline::manifest`): refuses a folder a run is writing, one a run did not finish
 /// writing, or one that mixes two runs' files; a folder without a manifest gets a note.
-pub fn check_run_folder(dir: &Path, names: &[&str]) -> Result<()> {
-    use polymap_pipeline::manifest::{FolderCheck, MANIFEST_FILE, check_files};
-    if check_files(dir, names)? == FolderCheck::Unknown {
+/// Returns the folder's lock for reading: hold it while the files are read, so that no run
+/// writes them after the check.
+pub fn check_run_folder(
+    dir: &Path,
+    names: &[&str],
+) -> Result<Option<polymap_pipeline::manifest::FolderLock>> {
+    let (check, lock) = polymap_pipeline::manifest::check_files(dir, names)?;
+    note_unknown(dir, &check);
+    Ok(lock)
+}
+
+/// [`check_run_folder`] for a command that holds the folder's lock for writing already.
+pub fn check_locked_run_folder(dir: &Path, names: &[&str]) -> Result<()> {
+    let check = polymap_pipeline::manifest::check_listed(dir, names)?;
+    note_unknown(dir, &check);
+    Ok(())
+}
+
+fn note_unknown(dir: &Path, check: &polymap_pipeline::manifest::FolderCheck) {
+    use polymap_pipeline::manifest::{FolderCheck, MANIFEST_FILE};
+    if *check == FolderCheck::Unknown {
         eprintln!(
             "polymap: note: {} has no {MANIFEST_FILE} (written by an older polymap, or by hand): \
              its files cannot be checked to be of one run",
             crate::quote::quoted(&dir.display().to_string())
         );
     }
-    Ok(())
 }

@@ -68,13 +68,24 @@ mod hex32 {
 /// Why a run folder's files cannot be taken as one run's.
 #[derive(Debug, thiserror::Error)]
 pub enum ManifestError {
-    /// Another polymap run holds the folder's lock.
+    /// Another polymap run holds the folder's lock for writing.
     #[error(
         "{}: another polymap run is writing this folder (it holds {LOCK_FILE}); wait for it, or \
          name another folder",
         dir.display()
     )]
     Busy {
+        /// The folder.
+        dir: PathBuf,
+    },
+    /// Another polymap run holds the folder's lock for reading: it reads the folder's files
+    /// or uses them as its saved map.
+    #[error(
+        "{}: another polymap run is reading this folder or using it as its map (it holds \
+         {LOCK_FILE} shared); wait for it, or name another folder",
+        dir.display()
+    )]
+    InUse {
         /// The folder.
         dir: PathBuf,
     },
@@ -215,11 +226,19 @@ pub enum FolderCheck {
 
 /// Checks that the files `names` of the run folder `dir` that exist are the ones its run
 /// wrote: no run is writing the folder (its lock is free), the manifest is complete, and each
-/// such file is listed with its size and CRC-32.
-pub fn check_files(dir: &Path, names: &[&str]) -> Result<FolderCheck, ManifestError> {
-    if let Some(lock) = FolderLock::try_shared(dir)? {
-        drop(lock);
-    }
+/// such file is listed with its size and CRC-32. Returns the folder's lock taken for reading
+/// (where the folder has a lock file): the caller holds it while it reads the files, so that
+/// no run writes them between the check and the read.
+pub fn check_files(
+    dir: &Path,
+    names: &[&str],
+) -> Result<(FolderCheck, Option<FolderLock>), ManifestError> {
+    let lock = FolderLock::try_shared(dir)?;
+    Ok((check_listed(dir, names)?, lock))
+}
+
+/// [`check_files`] for a caller that holds the folder's lock already (for writing).
+pub fn check_listed(dir: &Path, names: &[&str]) -> Result<FolderCheck, ManifestError> {
     let Some(manifest) = read_manifest(dir)? else {
         return Ok(FolderCheck::Unknown);
     };
@@ -281,9 +300,17 @@ impl FolderLock {
             })?;
         match file.try_lock() {
             Ok(()) => Ok(FolderLock { _file: file }),
-            Err(std::fs::TryLockError::WouldBlock) => Err(ManifestError::Busy {
-                dir: dir.to_path_buf(),
-            }),
+            // Held for reading where a shared lock can still be taken.
+            Err(std::fs::TryLockError::WouldBlock) => {
+                match File::open(&path).is_ok_and(|f| f.try_lock_shared().is_ok()) {
+                    true => Err(ManifestError::InUse {
+                        dir: dir.to_path_buf(),
+                    }),
+                    false => Err(ManifestError::Busy {
+                        dir: dir.to_path_buf(),
+                    }),
+                }
+            }
             Err(std::fs::TryLockError::Error(source)) => Err(ManifestError::Io { path, source }),
         }
     }
@@ -316,12 +343,15 @@ mod tests {
         let d = dir.path();
         std::fs::write(d.join("map.json"), "new map").unwrap();
         std::fs::write(d.join("summary.json"), "new summary").unwrap();
-        assert_eq!(check_files(d, &["map.json"]).unwrap(), FolderCheck::Unknown);
+        assert_eq!(
+            check_files(d, &["map.json"]).unwrap().0,
+            FolderCheck::Unknown
+        );
         let manifest = manifest_of(d, "run-1", &["map.json", "summary.json", "gone"]).unwrap();
         assert_eq!(manifest.files.len(), 2);
         write_manifest(d, &manifest).unwrap();
         assert!(matches!(
-            check_files(d, &["map.json", "summary.json"]).unwrap(),
+            check_files(d, &["map.json", "summary.json"]).unwrap().0,
             FolderCheck::OneRun(_)
         ));
         // An older run's file beside the listed ones.
@@ -362,5 +392,30 @@ mod tests {
         drop(lock);
         assert!(FolderLock::exclusive(dir.path()).is_ok());
         assert!(FolderLock::try_shared(dir.path()).unwrap().is_some());
+    }
+
+    /// The check used to take the shared lock and drop it at once, so a run could write the
+    /// folder between the check and the read. The lock comes back to be held while reading,
+    /// and a writer meets a reader, said as such.
+    #[test]
+    fn a_reader_holds_the_folder_until_it_has_read_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        drop(FolderLock::exclusive(d).unwrap());
+        std::fs::write(d.join("map.json"), "map").unwrap();
+        write_manifest(d, &manifest_of(d, "run-1", &["map.json"]).unwrap()).unwrap();
+        let (check, lock) = check_files(d, &["map.json"]).unwrap();
+        assert!(matches!(check, FolderCheck::OneRun(_)));
+        assert!(lock.is_some());
+        let e = FolderLock::exclusive(d).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("another polymap run is reading this folder"),
+            "{e}"
+        );
+        // Another reader may read beside it.
+        assert!(check_files(d, &["map.json"]).is_ok());
+        drop(lock);
+        assert!(FolderLock::exclusive(d).is_ok());
     }
 }

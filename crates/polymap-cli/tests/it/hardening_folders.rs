@@ -108,3 +108,44 @@ fn export_certifies_only_the_files_it_wrote() {
         text(&o)
     );
 }
+
+/// A run that reads a saved map checked the folder under a shared lock and dropped the lock at
+/// once, so a run could write the map between the check and the read. The lock is now held
+/// while the map is read and used: here `localize` reads its log from standard input, and once
+/// it has taken more than a pipe holds (so it has read the map), a writer of the map's folder
+/// is refused, told the folder is being read.
+#[test]
+fn a_saved_map_stays_locked_while_a_run_uses_it() {
+    use std::io::Write;
+    let dir = tempfile::tempdir().unwrap();
+    let log = office_log(dir.path());
+    let run = dir.path().join("run");
+    let o = map_quietly(&log, &run, &["--max-scans", "60"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let other = dir.path().join("other");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_polymap"))
+        .args(["localize", "-", "--map", o_str(&run), "-o", o_str(&other)])
+        .args(["-q", "--initial-pose", "0,0,0"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let bytes = fs::read(&log).unwrap();
+    // The first 200 scans or so, cut at a line's end.
+    let end = bytes[..250_000].iter().rposition(|&b| b == b'\n').unwrap() + 1;
+    let mut stdin = child.stdin.take().unwrap();
+    // More than a pipe holds: written only once polymap reads its log, the map read before.
+    stdin.write_all(&bytes[..200_000]).unwrap();
+    let taken = polymap_pipeline::manifest::FolderLock::exclusive(&run);
+    stdin.write_all(&bytes[200_000..end]).unwrap();
+    drop(stdin);
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", text(&o));
+    let e = taken.expect_err("the map's folder is locked while localize uses it");
+    assert!(
+        e.to_string()
+            .contains("another polymap run is reading this folder"),
+        "{e}"
+    );
+}
