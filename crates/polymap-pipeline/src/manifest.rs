@@ -289,6 +289,7 @@ impl FolderLock {
     /// when another run holds it.
     pub fn exclusive(dir: &Path) -> Result<FolderLock, ManifestError> {
         let path = dir.join(LOCK_FILE);
+        check_lock_file(&path)?;
         let file = OpenOptions::new()
             .create(true)
             .truncate(false)
@@ -320,6 +321,10 @@ impl FolderLock {
     /// writes it.
     pub fn try_shared(dir: &Path) -> Result<Option<FolderLock>, ManifestError> {
         let path = dir.join(LOCK_FILE);
+        if std::fs::symlink_metadata(&path).is_err() {
+            return Ok(None);
+        }
+        check_lock_file(&path)?;
         let Ok(file) = File::open(&path) else {
             return Ok(None);
         };
@@ -331,6 +336,20 @@ impl FolderLock {
             Err(std::fs::TryLockError::Error(source)) => Err(ManifestError::Io { path, source }),
         }
     }
+}
+
+/// Refuses a lock file that is there and not a regular file, before opening it: opening a
+/// FIFO waits for a writer, so one planted as `.polymap.lock` would hang the run.
+fn check_lock_file(path: &Path) -> Result<(), ManifestError> {
+    if std::fs::symlink_metadata(path).is_err() {
+        return Ok(());
+    }
+    polymap_io::input_file::check_regular(path)
+        .map(drop)
+        .map_err(|source| ManifestError::Io {
+            path: path.to_path_buf(),
+            source,
+        })
 }
 
 #[cfg(test)]
@@ -417,5 +436,22 @@ mod tests {
         assert!(check_files(d, &["map.json"]).is_ok());
         drop(lock);
         assert!(FolderLock::exclusive(d).is_ok());
+    }
+
+    /// A FIFO planted as the lock file hung `localize --map D` (opening it waits for a
+    /// writer): readers and writers now refuse it, saying what it is.
+    #[cfg(unix)]
+    #[test]
+    fn a_lock_file_that_is_not_a_file_is_refused_without_opening_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let made = std::process::Command::new("mkfifo")
+            .arg(dir.path().join(LOCK_FILE))
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let e = check_files(dir.path(), &[]).unwrap_err().to_string();
+        assert!(e.contains(".polymap.lock: a FIFO (named pipe)"), "{e}");
+        let e = FolderLock::exclusive(dir.path()).unwrap_err().to_string();
+        assert!(e.contains(".polymap.lock: a FIFO (named pipe)"), "{e}");
     }
 }
