@@ -123,7 +123,7 @@ pub fn read_loop_nodes_from(
         path: path.to_path_buf(),
         problem,
     };
-    let text = read_text(input, path)?;
+    let text = read_text(input, path, MAX_FILE_BYTES)?;
     check_version(&text, path, "loop_nodes.json", VERSION)?;
     let doc: Document = serde_json::from_str(&text).map_err(|e| json_error(path, e))?;
     if doc.units != UNITS_METRES {
@@ -156,6 +156,9 @@ pub fn read_loop_nodes_from(
 
 /// The most nodes a saved `loop_nodes.json` may hold (a node per few metres of travel).
 pub const MAX_NODES: usize = 100_000;
+/// The most a `loop_nodes.json` may weigh, bytes: what [`MAX_NODE_SEGMENTS`] segments need
+/// (about 85 bytes each), with room to spare; it bounds the memory of parsing the file.
+pub const MAX_FILE_BYTES: u64 = 128 << 20;
 /// The most segments all nodes' submaps may hold together.
 pub const MAX_NODE_SEGMENTS: usize = 1_000_000;
 

@@ -361,28 +361,35 @@ pub(crate) fn io_error(path: &Path) -> impl Fn(std::io::Error) -> MapJsonError +
     }
 }
 
-/// The most a saved map file (`map.json`, `loop_nodes.json`) may weigh, bytes: room for
-/// [`MAX_SEGMENTS`] segments with their observations.
-pub const MAX_FILE_BYTES: u64 = 256 << 20;
+/// The most a `map.json` may weigh, bytes: what [`MAX_SEGMENTS`] segments with their
+/// observations and polylines need (about 250 bytes a segment: 25 MB), with room to spare.
+/// The whole document is parsed before its bounds are checked, and parsing takes many times
+/// the text's size for some shapes (polylines of one index each: about 19 times), so this cap
+/// is what bounds the memory of reading a saved map.
+pub const MAX_FILE_BYTES: u64 = 64 << 20;
 
-/// The whole of `input` as text, at most [`MAX_FILE_BYTES`]; I/O errors name `path`.
-pub(crate) fn read_text(input: impl Read, path: &Path) -> Result<String, MapJsonError> {
+/// The whole of `input` as text, at most `max_bytes`; I/O errors name `path`.
+pub(crate) fn read_text(
+    input: impl Read,
+    path: &Path,
+    max_bytes: u64,
+) -> Result<String, MapJsonError> {
     let mut text = String::new();
     input
-        .take(MAX_FILE_BYTES + 1)
+        .take(max_bytes + 1)
         .read_to_string(&mut text)
         .map_err(io_error(path))?;
-    if text.len() as u64 > MAX_FILE_BYTES {
+    if text.len() as u64 > max_bytes {
         return Err(io_error(path)(std::io::Error::new(
             std::io::ErrorKind::FileTooLarge,
-            format!("more than the {MAX_FILE_BYTES} bytes a saved map file may hold"),
+            format!("more than the {max_bytes} bytes a file of this kind may hold"),
         )));
     }
     Ok(text)
 }
 
 /// Opens a saved map file for reading: a regular file (not a device, a FIFO or a folder) of
-/// at most [`MAX_FILE_BYTES`]; I/O errors name `path`.
+/// at most its kind's cap ([`MAX_FILE_BYTES`] for `map.json`); I/O errors name `path`.
 pub(crate) fn open_saved(path: &Path) -> Result<BufReader<File>, MapJsonError> {
     let file = crate::input_file::open_regular(path).map_err(io_error(path))?;
     Ok(BufReader::new(file))
@@ -446,7 +453,7 @@ pub fn read_map_json_from(
     path: impl AsRef<Path>,
 ) -> Result<MapJson, MapJsonError> {
     let path = path.as_ref();
-    let text = read_text(input, path)?;
+    let text = read_text(input, path, MAX_FILE_BYTES)?;
     check_version(&text, path, "map.json", VERSION)?;
     let map: MapJson = serde_json::from_str(&text).map_err(|e| json_error(path, e))?;
     drop(text);
@@ -518,6 +525,23 @@ pub(crate) fn json_error(path: &Path, source: serde_json::Error) -> MapJsonError
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A map.json of polylines `[[0],[0],…]` within the former 256 MiB cap took about 19
+    /// times its size in memory (a 40 MB file: 746 MB) before its bounds were checked: the
+    /// cap is now what the bounds need, and a file above it is refused before it is parsed.
+    #[test]
+    fn a_map_file_above_what_the_bounds_need_is_refused_before_it_is_parsed() {
+        let head = r#"{"version":2,"units":"m","frame":"first_scan","segments":[],"polylines":["#;
+        let body = "[0],".repeat((MAX_FILE_BYTES / 4) as usize + 1);
+        let text = format!("{head}{body}[0]]}}");
+        assert!((text.len() as u64) < 256 << 20);
+        let e = read_map_json_from(text.as_bytes(), "big/map.json").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("big/map.json: more than the 67108864 bytes"),
+            "{e}"
+        );
+    }
 
     fn segment(x0: f64, y0: f64, x1: f64, y1: f64, born_scan: u32) -> MapSegment {
         MapSegment {
