@@ -35,13 +35,18 @@ use crate::sim_cmd::simulate_to;
 /// At most this many scan points are drawn in the pictures.
 const MAX_PICTURE_POINTS: usize = 200_000;
 
-/// The largest bounding box, square metres, of a saved map that `--resume` and `localize`
-/// search for the log's start without `--initial-pose`. Each scan until the start is found
-/// costs a search over the whole box: measured on the simulated office's map tiled 2 × 2
-/// (3,400 m²) and 3 × 3 (8,000 m²), where no start is ever certain, 12 s and 26 s for the 50
-/// scans searched; a map of 100,000 m² took minutes. The real maps mapped here are smaller:
+/// Above this bounding box, square metres, of a saved map, `--resume` and `localize` without
+/// `--initial-pose` warn that the search for the log's start will be slow. Each scan until
+/// the start is found costs a search over the whole box, about 65 µs per m²: measured on the
+/// simulated office's map tiled 2 × 2 (3,400 m²) and 3 × 3 (8,000 m²), where no start is ever
+/// certain, 12 s and 26 s for the 50 scans searched. The benchmark logs' maps are smaller:
 /// Intel 1,100 m², ACES 3,000 m², FR079 650 m².
-const MAX_SEARCH_AREA_M2: f64 = 5_000.0;
+const SLOW_SEARCH_AREA_M2: f64 = 5_000.0;
+/// Above this bounding box, square metres, the search is refused: at about 65 µs per m² a scan
+/// it would take minutes (a map of 100,000 m² took minutes); the log needs `--initial-pose`.
+const MAX_SEARCH_AREA_M2: f64 = 100_000.0;
+/// Seconds per square metre of the map's box that one search for the start takes.
+const SEARCH_S_PER_M2: f64 = 65e-6;
 
 /// A saved map a run starts from: `--resume DIR` or `localize --map DIR`.
 struct SavedMap {
@@ -92,9 +97,10 @@ impl SavedMap {
         })
     }
 
-    /// Refuses a map too large for a search without `--initial-pose` to place the log within
-    /// seconds: the search covers the map's whole bounding box, its cost grows with that area.
-    fn check_searchable(&self) -> Result<()> {
+    /// Warns about a map whose search for the log's start (without `--initial-pose`) will be
+    /// slow, and refuses one where it would take minutes: the search covers the map's whole
+    /// bounding box, its cost grows with that area.
+    fn check_searchable(&self, start_search_scans: u32) -> Result<()> {
         let ends = self.map.segments.iter().flat_map(|s| [s.start, s.end]);
         let (lo, hi) = ends.fold(([f64::MAX; 2], [f64::MIN; 2]), |(lo, hi), p| {
             (
@@ -102,16 +108,25 @@ impl SavedMap {
                 [hi[0].max(p[0]), hi[1].max(p[1])],
             )
         });
-        let area_m2 = (hi[0] - lo[0]).max(0.0) * (hi[1] - lo[1]).max(0.0);
+        let (w, h) = ((hi[0] - lo[0]).max(0.0), (hi[1] - lo[1]).max(0.0));
+        let area_m2 = w * h;
+        let dir = quoted(&self.dir.display().to_string());
         anyhow::ensure!(
             area_m2 <= MAX_SEARCH_AREA_M2,
-            "{}: the map covers {:.0} m × {:.0} m, more than the {MAX_SEARCH_AREA_M2} m² a search \
-             for the log's start covers within seconds: give --initial-pose x,y,yaw (metres, \
-             metres, radians) where the log starts",
-            quoted(&self.dir.display().to_string()),
-            hi[0] - lo[0],
-            hi[1] - lo[1]
+            "{dir}: the map covers {w:.0} m × {h:.0} m, more than the {MAX_SEARCH_AREA_M2} m² a \
+             search for the log's start may cover (each scan until it is found would take about \
+             {:.0} s): give --initial-pose x,y,yaw (metres, metres, radians) where the log starts",
+            area_m2 * SEARCH_S_PER_M2
         );
+        if area_m2 > SLOW_SEARCH_AREA_M2 {
+            eprintln!(
+                "polymap: warning: {dir}: the map covers {w:.0} m × {h:.0} m: the search for the \
+                 log's start takes about {:.1} s per scan until it is found (up to {} scans); \
+                 --initial-pose x,y,yaw (metres, metres, radians) skips it",
+                area_m2 * SEARCH_S_PER_M2,
+                start_search_scans
+            );
+        }
         Ok(())
     }
 
@@ -176,7 +191,7 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         return Ok(());
     }
     if let Some(s) = saved.as_ref().filter(|_| a.initial_pose.is_none()) {
-        s.check_searchable()?;
+        s.check_searchable(config.tracking.start_search_scans)?;
     }
     // Before any work: an output that is an input, a file named by -o, or a folder that cannot
     // be written, is an error now, not after the whole mapping run.

@@ -257,10 +257,11 @@ fn tiled_map(from: &Path, dir: &Path, k: usize) {
 /// A saved map is input like any other: one wall from (1e6, 1e6) to (-1e6, -1e6) made
 /// `--resume`, `localize`, `eval map` and `merge` run for minutes, coordinates times 1e298
 /// ended `merge` in a 16 GB allocation. Each command now refuses the file at once, naming it
-/// and the segment; a map too wide to search for the log's start without `--initial-pose`
-/// is refused with the limit, and maps with one.
+/// and the segment. A map whose search for the log's start without `--initial-pose` is slow
+/// warns with the cost; one where it would take minutes a scan is refused with the limit; both
+/// map with `--initial-pose`.
 #[test]
-fn saved_maps_beyond_the_bounds_are_refused_within_seconds() {
+fn saved_maps_beyond_the_bounds_are_refused_and_wide_ones_warn() {
     let dir = tempfile::tempdir().unwrap();
     let (log, saved) = office_run(dir.path(), "saved");
     let json = fs::read_to_string(saved.join("map.json")).unwrap();
@@ -292,13 +293,33 @@ fn saved_maps_beyond_the_bounds_are_refused_within_seconds() {
             text(&run)
         );
     }
-    let wide = dir.path().join("wide");
-    tiled_map(&saved, &wide, 3);
-    let run = polymap(&["localize", l, "--map", o_str(&wide), "-o", o, "-q"]);
+    // A map of about 340 m × 340 m: a search for the start over it would take minutes a scan.
+    let vast = dir.path().join("vast");
+    tiled_map(&saved, &vast, 9);
+    let run = polymap(&["localize", l, "--map", o_str(&vast), "-o", o, "-q"]);
     assert!(!run.status.success(), "{}", text(&run));
     assert!(
-        text(&run).contains("5000 m² a search for the log's start")
+        text(&run).contains("100000 m² a search for the log's start may cover")
             && text(&run).contains("--initial-pose"),
+        "{}",
+        text(&run)
+    );
+    // A map of about 8,000 m², a large building: searched, with a warning of the cost.
+    let wide = dir.path().join("wide");
+    tiled_map(&saved, &wide, 3);
+    let run = polymap(&[
+        "localize",
+        l,
+        "--map",
+        o_str(&wide),
+        "-o",
+        o,
+        "-q",
+        "--max-scans",
+        "2",
+    ]);
+    assert!(
+        text(&run).contains("per scan until it is found") && !text(&run).contains("may cover"),
         "{}",
         text(&run)
     );
