@@ -18,7 +18,7 @@ use super::survey::TopicSummary;
 
 /// Reads the messages of some topics of an indexed MCAP file, skipping every chunk that holds
 /// none of them without reading or decompressing it. Each chunk read has its CRC checked (when
-/// it has one) before any of its messages is handed out ([`super::mcap_chunk`]).
+/// it has one) before any of its messages is handed out (module `mcap_chunk`).
 pub struct McapIndexedReader {
     file: File,
     path: PathBuf,
