@@ -19,8 +19,9 @@ use std::fs::{File, FileType};
 use std::io::{self, Read};
 use std::path::Path;
 
-/// What a file type is, in words, when it is not a regular file.
-fn kind_of(t: &FileType) -> &'static str {
+/// What a file type is, in words, when it is not a regular file ("a character device", "a
+/// FIFO (named pipe)", "a socket", "a folder", …).
+pub fn kind_of(t: &FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
@@ -63,28 +64,37 @@ pub fn open_regular(path: &Path) -> io::Result<File> {
     File::open(path)
 }
 
-/// The whole of the regular file `path`, refused (kind [`io::ErrorKind::FileTooLarge`]) when
-/// it holds more than `max_bytes`.
-pub fn read_regular(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
-    let too_large = |size: &dyn std::fmt::Display| {
-        io::Error::new(
-            io::ErrorKind::FileTooLarge,
-            format!("{size} bytes, more than the {max_bytes} bytes a file of this kind may hold"),
-        )
-    };
-    let meta = check_regular(path)?;
-    if meta.len() > max_bytes {
-        return Err(too_large(&meta.len()));
-    }
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    // The file may grow while it is read: the limit holds for what is read, too.
-    File::open(path)?
+/// The whole of `input`, refused (kind [`io::ErrorKind::FileTooLarge`]) once it holds more
+/// than `max_bytes`: at most `max_bytes + 1` bytes are read, whatever the input's length.
+pub fn read_bounded(input: impl Read, max_bytes: u64) -> io::Result<Vec<u8>> {
+    let mut bytes = Vec::new();
+    input
         .take(max_bytes.saturating_add(1))
         .read_to_end(&mut bytes)?;
     if bytes.len() as u64 > max_bytes {
-        return Err(too_large(&format!("over {max_bytes}")));
+        return Err(io::Error::new(
+            io::ErrorKind::FileTooLarge,
+            format!("more than the {max_bytes} bytes a file of this kind may hold"),
+        ));
     }
     Ok(bytes)
+}
+
+/// The whole of the regular file `path`, refused (kind [`io::ErrorKind::FileTooLarge`]) when
+/// it holds more than `max_bytes`.
+pub fn read_regular(path: &Path, max_bytes: u64) -> io::Result<Vec<u8>> {
+    let meta = check_regular(path)?;
+    if meta.len() > max_bytes {
+        return Err(io::Error::new(
+            io::ErrorKind::FileTooLarge,
+            format!(
+                "{} bytes, more than the {max_bytes} bytes a file of this kind may hold",
+                meta.len()
+            ),
+        ));
+    }
+    // The file may grow while it is read: the limit holds for what is read, too.
+    read_bounded(File::open(path)?, max_bytes)
 }
 
 /// [`read_regular`] as UTF-8 text.

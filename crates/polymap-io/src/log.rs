@@ -70,12 +70,10 @@ fn refuse_device(path: &Path) -> Result<(), LogError> {
         let Ok(t) = std::fs::metadata(path).map(|m| m.file_type()) else {
             return Ok(()); // opening it names the problem
         };
-        let what = match () {
-            _ if t.is_char_device() => "a character device",
-            _ if t.is_block_device() => "a block device",
-            _ if t.is_socket() => "a socket",
-            _ => return Ok(()),
-        };
+        if !(t.is_char_device() || t.is_block_device() || t.is_socket()) {
+            return Ok(());
+        }
+        let what = crate::input_file::kind_of(&t);
         Err(LogError::Carmen(CarmenError::Io {
             path: path.to_path_buf(),
             source: std::io::Error::new(

@@ -374,22 +374,17 @@ pub(crate) fn read_text(
     path: &Path,
     max_bytes: u64,
 ) -> Result<String, MapJsonError> {
-    let mut text = String::new();
-    input
-        .take(max_bytes + 1)
-        .read_to_string(&mut text)
-        .map_err(io_error(path))?;
-    if text.len() as u64 > max_bytes {
-        return Err(io_error(path)(std::io::Error::new(
-            std::io::ErrorKind::FileTooLarge,
-            format!("more than the {max_bytes} bytes a file of this kind may hold"),
-        )));
-    }
-    Ok(text)
+    let bytes = crate::input_file::read_bounded(input, max_bytes).map_err(io_error(path))?;
+    String::from_utf8(bytes).map_err(|_| {
+        io_error(path)(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            "stream did not contain valid UTF-8",
+        ))
+    })
 }
 
-/// Opens a saved map file for reading: a regular file (not a device, a FIFO or a folder) of
-/// at most its kind's cap ([`MAX_FILE_BYTES`] for `map.json`); I/O errors name `path`.
+/// Opens a saved map file for reading: a regular file (not a device, a FIFO or a folder; its
+/// size is capped by [`read_text`] as it is read); I/O errors name `path`.
 pub(crate) fn open_saved(path: &Path) -> Result<BufReader<File>, MapJsonError> {
     let file = crate::input_file::open_regular(path).map_err(io_error(path))?;
     Ok(BufReader::new(file))

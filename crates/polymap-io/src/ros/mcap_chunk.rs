@@ -76,10 +76,6 @@ pub(crate) fn chunk_span_ns(body: &[u8]) -> (u64, u64) {
 /// The records of one chunk record (`body`, without its opcode and length), after its CRC
 /// (when it has one) is checked; `limit` bounds its compressed and decompressed size.
 pub(crate) fn chunk_records(body: &[u8], limit: usize) -> Result<Vec<ChunkRecord>, String> {
-    let mut bytes = Vec::with_capacity(body.len() + 9);
-    bytes.push(op::CHUNK);
-    bytes.extend_from_slice(&(body.len() as u64).to_le_bytes());
-    bytes.extend_from_slice(body);
     let options = LinearReaderOptions::default()
         .with_skip_start_magic(true)
         .with_skip_end_magic(true)
@@ -91,9 +87,12 @@ pub(crate) fn chunk_records(body: &[u8], limit: usize) -> Result<Vec<ChunkRecord
     while let Some(event) = reader.next_event() {
         match event.map_err(|e| e.to_string())? {
             LinearReadEvent::ReadRequest(_) if !fed => {
-                let buf = reader.insert(bytes.len());
-                buf.copy_from_slice(&bytes);
-                reader.notify_read(bytes.len());
+                // The chunk record as it stands in a file: opcode, length, body.
+                let buf = reader.insert(9 + body.len());
+                buf[0] = op::CHUNK;
+                buf[1..9].copy_from_slice(&(body.len() as u64).to_le_bytes());
+                buf[9..].copy_from_slice(body);
+                reader.notify_read(9 + body.len());
                 fed = true;
             }
             LinearReadEvent::ReadRequest(_) => reader.notify_read(0),
