@@ -32,6 +32,80 @@ pub enum Command {
     /// Merge two maps of the same place made separately: find where B lies in A (no guess
     /// needed), refuse maps that do not overlap or fit in two places, merge B into A.
     Merge(MergeArgs),
+    /// Run as a ROS 2 SLAM node (no ROS installation needed): map the LaserScans of a live
+    /// robot, publish /map, /tf, /pose, polymap/segments and polymap/status; on Ctrl-C or
+    /// SIGTERM write the run folder as `polymap map` does and exit 0.
+    #[cfg(feature = "ros2")]
+    Ros2(Ros2Args),
+}
+
+#[cfg(feature = "ros2")]
+#[derive(Debug, Args)]
+pub struct Ros2Args {
+    /// The sensor_msgs/LaserScan topic (sensor-data QoS: best effort, volatile).
+    #[arg(long, default_value = "scan")]
+    pub scan_topic: String,
+    /// A nav_msgs/Odometry topic to read the odometry from (used by --odometry, else as a
+    /// witness of the tracked steps; its frame becomes `odom`, its child frame the base).
+    #[arg(long)]
+    pub odom_topic: Option<String>,
+    /// Start each scan's alignment from the odometry's step, as `polymap map --odometry`.
+    #[arg(long, requires = "odom_topic")]
+    pub odometry: bool,
+    /// The global frame published.
+    #[arg(long, default_value = "map")]
+    pub map_frame: String,
+    /// The robot's frame (default: the odometry's child frame, else the scans' frame).
+    #[arg(long)]
+    pub base_frame: Option<String>,
+    /// Scans waiting for the mapper, at most; beyond, the oldest is dropped (counted).
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..=10_000))]
+    pub queue: u64,
+    /// Publish /map (the occupancy grid) and the markers at most this often, seconds, and only
+    /// when the map changed.
+    #[arg(long, default_value_t = 2.0, value_parser = parse_period)]
+    pub map_period: f64,
+    /// Output directory, written on Ctrl-C or SIGTERM (created if missing).
+    #[arg(short, long, default_value = "out")]
+    pub output: PathBuf,
+    /// A TOML configuration file (see `polymap map --print-config`); may be repeated.
+    #[arg(long)]
+    pub config: Vec<PathBuf>,
+    /// A named preset: `default` or `paper`.
+    #[arg(long, default_value = "default")]
+    pub preset: String,
+    /// Continue the saved map in DIR (as `polymap map --resume`).
+    #[arg(long, value_name = "DIR", conflicts_with = "localize")]
+    pub resume: Option<PathBuf>,
+    /// Localize in the saved map in DIR without changing it (as `polymap localize`).
+    #[arg(long, value_name = "DIR")]
+    pub localize: Option<PathBuf>,
+    /// With --resume or --localize: where the robot starts in the saved map, `x,y,yaw`.
+    #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
+    pub initial_pose: Option<polymap::geometry::Pose2>,
+    /// Also write these formats (comma-separated): png, html, pgm, dxf.
+    #[arg(long, value_delimiter = ',')]
+    pub export: Vec<polymap_export::formats::Format>,
+    /// Cell size of /map and the pgm occupancy grid, metres.
+    #[arg(long, default_value_t = 0.05, value_parser = parse_resolution)]
+    pub resolution: f64,
+    /// Also write per-scan diagnostics to DIR/diagnostics.jsonl.
+    #[arg(long)]
+    pub diagnostics: bool,
+    /// Quiet: no summary line.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// A period in seconds: finite, from 0 to one day.
+#[cfg(feature = "ros2")]
+fn parse_period(text: &str) -> Result<f64, String> {
+    let s: f64 = text.parse().map_err(|_| format!("not a number: {text}"))?;
+    if s.is_finite() && (0.0..=86_400.0).contains(&s) {
+        Ok(s)
+    } else {
+        Err(format!("{text} s is outside 0..=86400 s"))
+    }
 }
 
 #[derive(Debug, Args)]

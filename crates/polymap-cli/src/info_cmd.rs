@@ -20,7 +20,8 @@ pub fn run(a: &InfoArgs) -> Result<()> {
         kind.name()
     );
     match kind {
-        LogKind::Carmen => carmen_info(a),
+        // `LogKind::of` never tells a path to be live.
+        LogKind::Carmen | LogKind::Live => carmen_info(a),
         LogKind::Ros(format) => {
             let mut source = open_source(&a.log, format, ReadLimits::default(), false)?;
             let topics = survey(source.as_mut())?;

@@ -29,6 +29,8 @@ mod map_cmd;
 mod merge_cmd;
 mod outputs;
 mod quote;
+#[cfg(feature = "ros2")]
+mod ros2_cmd;
 mod sim_cmd;
 mod warnings;
 
@@ -46,6 +48,8 @@ fn main() -> ExitCode {
         args::Command::Export(a) => export_cmd::run(&a),
         args::Command::Localize(a) => map_cmd::localize(&a),
         args::Command::Merge(a) => merge_cmd::run(&a),
+        #[cfg(feature = "ros2")]
+        args::Command::Ros2(a) => ros2_cmd::run(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

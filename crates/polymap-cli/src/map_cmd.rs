@@ -15,7 +15,7 @@ use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
 use polymap_export::formats::Format;
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
-use polymap_io::log::{LogOptions, LogSource, LogStats};
+use polymap_io::log::{LogKind, LogOptions, LogSource, LogStats};
 use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
@@ -48,8 +48,21 @@ const MAX_SEARCH_AREA_M2: f64 = 100_000.0;
 /// Seconds per square metre of the map's box that one search for the start takes.
 const SEARCH_S_PER_M2: f64 = 65e-6;
 
+/// A source of scans that arrive as they are taken (the ROS 2 node), with what it does beside
+/// the mapping: act on each scan as it is mapped, and say what it measured at the end.
+pub trait Live {
+    /// The scans, once.
+    fn take_source(&mut self) -> Result<LogSource>;
+    /// Ends the source (its queued scans are still mapped) once `stop` is set.
+    fn stop_on(&mut self, stop: Arc<AtomicBool>);
+    /// After each scan is mapped.
+    fn on_scan(&mut self, event: &ScanEvent<'_>);
+    /// After the last scan: what the run's summary.json says of the live run (`live`).
+    fn finish(&mut self, mapper: &Mapper) -> serde_json::Value;
+}
+
 /// A saved map a run starts from: `--resume DIR` or `localize --map DIR`.
-struct SavedMap {
+pub struct SavedMap {
     dir: PathBuf,
     map: MapJson,
     /// The saved run's loop-closure nodes (empty when it saved none).
@@ -61,7 +74,7 @@ struct SavedMap {
 }
 
 impl SavedMap {
-    fn read(dir: &Path, role: MapRole) -> Result<SavedMap> {
+    pub fn read(dir: &Path, role: MapRole) -> Result<SavedMap> {
         let lock = crate::outputs::check_run_folder(dir, &["map.json", LOOP_NODES_FILE])?;
         let map = read_map_json(dir.join("map.json")).with_context(|| {
             format!(
@@ -155,7 +168,7 @@ pub fn run(a: &MapArgs) -> Result<()> {
         Some(dir) => Some(SavedMap::read(dir, MapRole::Build)?),
         None => None,
     };
-    run_with(a, saved)
+    run_with(a, saved, None)
 }
 
 /// `polymap localize`: a log placed in a saved map that stays as it is.
@@ -171,10 +184,16 @@ pub fn localize(l: &LocalizeArgs) -> Result<()> {
          without --resume)"
     );
     let saved = SavedMap::read(&l.map, MapRole::Localize)?;
-    run_with(&l.run, Some(saved))
+    run_with(&l.run, Some(saved), None)
 }
 
-fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
+/// Maps `a.log` (or, with `live`, the live source's scans) into `a.output`, continuing or
+/// localizing in `saved`.
+pub fn run_with(
+    a: &MapArgs,
+    saved: Option<SavedMap>,
+    mut live: Option<&mut dyn Live>,
+) -> Result<()> {
     let config = effective_config(&a.preset, &a.config, a.odometry)?;
     anyhow::ensure!(
         a.initial_pose.is_none() || saved.is_some(),
@@ -204,25 +223,43 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
     }
     check_output_apart(&a.output, &inputs)?;
     let folder = RunFolder::prepare(&a.output)?;
-    let log = match &a.log {
-        Some(p) => p.clone(),
-        None => simulated_log(&a.output)?,
-    };
-    // Any kind of log: CARMEN (plain, compressed, standard input) or a ROS recording.
-    let options = LogOptions {
-        skip_bad_input: a.skip_bad_lines,
-        topic: a.topic.clone(),
-        odometry: a.odometry,
-        odom_topic: a.odom_topic.clone(),
-        // Without --odometry the log's odometry, where a ROS file has it, still witnesses the
-        // steps (CARMEN scans carry theirs anyway).
-        witness_odometry: true,
-        ..LogOptions::default()
-    };
-    let source = LogSource::open(&log, &options)?;
-    let log_name = log_name(&log, &source);
     let stop = crate::interrupt::flag()?;
-    let (mut record, counts, diag) = map_source(source, &config, a, &folder, stop, saved.as_ref())?;
+    let source = match live.as_deref_mut() {
+        Some(l) => {
+            // A live source ends when told to; the scans it holds are mapped, not dropped.
+            l.stop_on(Arc::clone(&stop));
+            l.take_source()?
+        }
+        None => {
+            let log = match &a.log {
+                Some(p) => p.clone(),
+                None => simulated_log(&a.output)?,
+            };
+            // Any kind of log: CARMEN (plain, compressed, standard input) or a ROS recording.
+            let options = LogOptions {
+                skip_bad_input: a.skip_bad_lines,
+                topic: a.topic.clone(),
+                odometry: a.odometry,
+                odom_topic: a.odom_topic.clone(),
+                // Without --odometry the log's odometry, where a ROS file has it, still
+                // witnesses the steps (CARMEN scans carry theirs anyway).
+                witness_odometry: true,
+                ..LogOptions::default()
+            };
+            LogSource::open(&log, &options)?
+        }
+    };
+    let log_name = log_name(&source);
+    let stop = live.is_none().then_some(stop);
+    let (mut record, counts, diag) = map_source(
+        source,
+        &config,
+        a,
+        &folder,
+        stop,
+        saved.as_ref(),
+        live.as_deref_mut(),
+    )?;
     check_not_empty(&log_name, &record, counts.as_ref().map(|c| &c.1))?;
     let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
@@ -255,6 +292,9 @@ fn run_with(a: &MapArgs, saved: Option<SavedMap>) -> Result<()> {
         record.valid_returns,
         reader,
     );
+    if let Some(l) = live {
+        summary["live"] = l.finish(&record.mapper);
+    }
     if let Some(c) = &record.history.map_consistency {
         summary["map_consistency"] = json!({
             "seen_through_share": c.seen_through_share,
@@ -323,9 +363,13 @@ fn simulated_log(output: &Path) -> Result<PathBuf> {
     Ok(files.log)
 }
 
-/// The log as `summary.json` names it: its canonical path, or `-` for standard input and
-/// other streams (which cannot be read again).
-fn log_name(log: &Path, source: &LogSource) -> String {
+/// The log as `summary.json` names it: its canonical path, `-` for standard input and other
+/// streams (which cannot be read again), or a live topic's name.
+fn log_name(source: &LogSource) -> String {
+    let log = source.path();
+    if source.kind() == LogKind::Live {
+        return log.display().to_string();
+    }
     if !source.is_regular_file() {
         return "-".to_owned();
     }
@@ -350,8 +394,9 @@ fn map_source(
     config: &Config,
     a: &MapArgs,
     folder: &RunFolder,
-    stop: Arc<AtomicBool>,
+    stop: Option<Arc<AtomicBool>>,
     saved: Option<&SavedMap>,
+    mut live: Option<&mut (dyn Live + '_)>,
 ) -> Result<Mapped> {
     let bar = progress_bar(a.quiet, source.size_bytes());
     let mut diag = match a.diagnostics {
@@ -367,7 +412,7 @@ fn map_source(
         keep_scan_points: a.svg_points || a.export.contains(&Format::Pgm),
         history_title: quoted(&source.path().display().to_string()),
         stream: !source.is_regular_file(),
-        stop: Some(stop),
+        stop,
         mapper: saved.map(|s| s.mapper(config, a.initial_pose)),
     };
     // A run on a saved map is placed by its first confident scan (or by --initial-pose); one
@@ -375,6 +420,9 @@ fn map_source(
     let mut placed = saved.is_none() || a.initial_pose.is_some();
     let search_scans = config.tracking.start_search_scans as usize;
     let outcome = pipeline::run(source, config, options, |e: &ScanEvent<'_>| {
+        if let Some(l) = live.as_deref_mut() {
+            l.on_scan(e);
+        }
         if let Some(w) = diag.as_mut() {
             w.write(&e.stamp.text, e.update)?;
         }

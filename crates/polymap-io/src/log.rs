@@ -25,6 +25,8 @@ pub enum LogKind {
     Carmen,
     /// A ROS recording in one of the container formats.
     Ros(RosFormat),
+    /// Scans arriving as they are taken ([`LogSource::live`]), never told from a path.
+    Live,
 }
 
 impl LogKind {
@@ -57,6 +59,7 @@ impl LogKind {
             LogKind::Ros(RosFormat::Mcap) => "MCAP file",
             LogKind::Ros(RosFormat::Sqlite) => "rosbag2 sqlite3 file",
             LogKind::Ros(RosFormat::Folder) => "rosbag2 folder",
+            LogKind::Live => "live topic",
         }
     }
 }
@@ -159,6 +162,18 @@ pub struct LogStats {
 enum Inner {
     Carmen(Box<source::LogSource>),
     Ros(Box<RosScanReader>),
+    Live(Box<dyn LiveScans>),
+}
+
+/// Scans that arrive as they are taken (a ROS 2 topic), mapped like any log.
+pub trait LiveScans: Send {
+    /// The next scan, waiting for it; `None` once the source has ended and every scan that
+    /// arrived was handed over.
+    fn next_scan(&mut self) -> Option<RangeScan>;
+
+    /// What has arrived so far, in the same terms as a file's counts (messages received,
+    /// scans handed over, bad messages skipped, scans dropped in `warnings`).
+    fn stats(&self) -> LogStats;
 }
 
 /// A log of any kind, read scan by scan in file order; a [`ScanSource`] for the pipeline.
@@ -174,7 +189,8 @@ impl LogSource {
     pub fn open(path: &Path, options: &LogOptions) -> Result<Self, LogError> {
         let kind = LogKind::of(path)?;
         let inner = match kind {
-            LogKind::Carmen => {
+            // `LogKind::of` never tells a path to be live.
+            LogKind::Carmen | LogKind::Live => {
                 let carmen = ReaderOptions {
                     skip_bad_lines: options.skip_bad_input,
                     ..options.carmen.clone()
@@ -199,6 +215,7 @@ impl LogSource {
                 .ok()
                 .filter(|m| m.is_file())
                 .map(|m| m.len()),
+            Inner::Live(_) => None,
         };
         Ok(LogSource {
             kind,
@@ -206,6 +223,16 @@ impl LogSource {
             path: path.to_path_buf(),
             size,
         })
+    }
+
+    /// A live source, named `name` in messages (a topic, say `/scan`).
+    pub fn live(name: &str, scans: Box<dyn LiveScans>) -> Self {
+        LogSource {
+            kind: LogKind::Live,
+            inner: Inner::Live(scans),
+            path: PathBuf::from(name),
+            size: None,
+        }
     }
 
     /// The kind of log.
@@ -217,7 +244,7 @@ impl LogSource {
     pub fn path(&self) -> &Path {
         match &self.inner {
             Inner::Carmen(c) => c.path(),
-            Inner::Ros(_) => &self.path,
+            Inner::Ros(_) | Inner::Live(_) => &self.path,
         }
     }
 
@@ -231,6 +258,7 @@ impl LogSource {
         match &self.inner {
             Inner::Carmen(c) => c.is_regular_file(),
             Inner::Ros(_) => true,
+            Inner::Live(_) => false,
         }
     }
 
@@ -239,6 +267,7 @@ impl LogSource {
         match &mut self.inner {
             Inner::Carmen(r) => Ok(ScanSource::next_scan(r.as_mut())?),
             Inner::Ros(r) => Ok(r.next_scan()?),
+            Inner::Live(l) => Ok(l.next_scan()),
         }
     }
 
@@ -264,6 +293,7 @@ impl LogSource {
                     warnings: Vec::new(),
                 }
             }
+            Inner::Live(l) => l.stats(),
             Inner::Ros(r) => {
                 let s = r.stats();
                 LogStats {
@@ -292,7 +322,7 @@ impl LogSource {
     pub fn carmen_stats(&self) -> CarmenStats {
         match &self.inner {
             Inner::Carmen(r) => r.stats().clone(),
-            Inner::Ros(_) => {
+            Inner::Ros(_) | Inner::Live(_) => {
                 let s = self.stats();
                 CarmenStats {
                     lines: s.records,
@@ -343,6 +373,7 @@ impl ScanSource for LogSource {
         match &self.inner {
             Inner::Carmen(c) => c.bytes_read(),
             Inner::Ros(r) => r.position(),
+            Inner::Live(_) => 0,
         }
     }
 }

@@ -60,6 +60,9 @@ pub struct ScanEvent<'a> {
     pub update: &'a Update,
     /// Bytes of the input read up to this scan (0 when unknown), for progress.
     pub bytes_read: u64,
+    /// The mapper after this scan (its map, its trajectory so far), for a caller that shows
+    /// them as they grow.
+    pub mapper: &'a Mapper,
 }
 
 /// Where the time went, wall clock.
@@ -204,6 +207,7 @@ where
                 stamp: &ready.stamp,
                 update: &update,
                 bytes_read: ready.bytes_read,
+                mapper: &rec.mapper,
             })
             .map_err(PipelineError::Callback)?;
             rec.valid_returns += ready.valid;

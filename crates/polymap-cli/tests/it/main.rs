@@ -11,6 +11,8 @@ mod merge;
 mod observe;
 mod readme;
 mod ros;
+#[cfg(feature = "ros2")]
+mod ros2;
 mod support;
 mod tracking;
 mod tracking_support;

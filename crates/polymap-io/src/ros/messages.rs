@@ -173,7 +173,9 @@ impl LaserScanMsg {
         Ok(msg)
     }
 
-    fn check_geometry(&self) -> Result<(), MessageProblem> {
+    /// Checks what the mapper relies on: a finite, non-zero bearing step, finite bearings and
+    /// a positive `range_max` (as [`decode`](Self::decode) does for every message it reads).
+    pub fn check_geometry(&self) -> Result<(), MessageProblem> {
         let bad = |field, value: f32| {
             Err(MessageProblem::BadValue {
                 field,

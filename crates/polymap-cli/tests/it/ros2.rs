@@ -1,0 +1,373 @@
+//! `polymap ros2` against an independent DDS stack: Eclipse Cyclone DDS's Python binding
+//! (`tests/ros2/ros2_peer.py`) plays recordings into the node and records what it publishes.
+//! Every participant, on both sides, keeps to the loopback interface: the node by
+//! `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`, Cyclone by a configuration naming `lo`, with
+//! multicast off and unicast discovery to 127.0.0.1. Each test has a domain of its own.
+//!
+//! Without Python's `cyclonedds` and `rosbags` the tests skip with a message, except in CI
+//! (`CI=true`), where they fail.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+use serde_json::Value;
+
+use crate::support::{polymap, text};
+
+const CYCLONE_LOOPBACK: &str = "<CycloneDDS><Domain id=\"any\"><General><Interfaces>\
+    <NetworkInterface name=\"lo\"/></Interfaces><AllowMulticast>false</AllowMulticast></General>\
+    <Discovery><ParticipantIndex>auto</ParticipantIndex><MaxAutoParticipantIndex>40\
+    </MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain>\
+    </CycloneDDS>";
+
+fn peer_script() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/ros2_peer.py")
+}
+
+/// True when `python3` has cyclonedds and rosbags; without them the test fails under CI and
+/// skips with a message elsewhere.
+fn peer_available() -> bool {
+    let ok = Command::new("python3")
+        .args(["-c", "import cyclonedds.domain, rosbags.highlevel"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !ok {
+        assert!(
+            std::env::var("CI").as_deref() != Ok("true"),
+            "python3 cannot import cyclonedds and rosbags: CI=true requires them"
+        );
+        eprintln!(
+            "SKIPPED: python3 cannot import cyclonedds and rosbags (pip install cyclonedds rosbags)"
+        );
+    }
+    ok
+}
+
+/// A simulated world written as ROS recordings into `dir`; the MCAP file.
+fn recording(dir: &Path, world: &str) -> PathBuf {
+    let o = polymap(&["simulate", world, "--ros", "-o", dir.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    dir.join(format!("{world}.mcap"))
+}
+
+fn start_node(domain: u16, out: &Path, extra: &[&str]) -> Child {
+    Command::new(env!("CARGO_BIN_EXE_polymap"))
+        .args(["ros2", "-o", out.to_str().unwrap()])
+        .args(extra)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .env_remove("ROS_LOCALHOST_ONLY")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("polymap ros2 starts")
+}
+
+fn peer_command(domain: u16, out: &Path, args: &[&str]) -> Command {
+    let mut c = Command::new("python3");
+    c.arg(peer_script())
+        .args(["--out", out.to_str().unwrap()])
+        .args(args)
+        .env("ROS_DOMAIN_ID", domain.to_string())
+        .env("CYCLONEDDS_URI", CYCLONE_LOOPBACK);
+    c
+}
+
+/// Runs the peer to its end; what it recorded.
+fn run_peer(domain: u16, dir: &Path, args: &[&str]) -> Value {
+    let out = dir.join("peer.json");
+    let o = peer_command(domain, &out, args)
+        .output()
+        .expect("python3 runs");
+    assert!(o.status.success(), "the peer failed: {}", text(&o));
+    serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap()
+}
+
+/// Sends `signal` (`INT`, `TERM`) to the node and waits for it to end.
+fn stop_node(child: Child, signal: &str) -> Output {
+    let status = Command::new("kill")
+        .args([&format!("-{signal}"), &child.id().to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(status.success());
+    let deadline = Instant::now() + Duration::from_secs(120);
+    let output = child.wait_with_output().expect("the node ends");
+    assert!(Instant::now() < deadline);
+    output
+}
+
+fn summary(out: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap()
+}
+
+#[test]
+fn a_recording_played_live_maps_as_the_recording_does_and_every_output_arrives() {
+    if !peer_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = recording(dir.path(), "hallway45");
+    let live = dir.path().join("live");
+    // A queue that never fills, so that no scan is dropped however loaded the machine is.
+    let node = start_node(
+        111,
+        &live,
+        &[
+            "--odom-topic",
+            "odom",
+            "--map-period",
+            "0.5",
+            "--queue",
+            "10000",
+        ],
+    );
+    let got = run_peer(
+        111,
+        dir.path(),
+        &[
+            "--recording",
+            mcap.to_str().unwrap(),
+            "--rate",
+            "20",
+            "--max-scans",
+            "600",
+        ],
+    );
+    let o = stop_node(node, "INT");
+    assert!(
+        o.status.success(),
+        "SIGINT ends the node with 0: {}",
+        text(&o)
+    );
+    assert_eq!(got["matched"], true, "{got}");
+    assert_eq!(got["sent_scans"], 600);
+    let counts = &got["counts"];
+    assert_eq!(counts["pose"], 600, "a pose per scan: {counts}");
+    assert!(counts["tf"].as_u64().unwrap() >= 600, "{counts}");
+    for topic in ["map", "segments", "status"] {
+        assert!(counts[topic].as_u64().unwrap() >= 1, "{topic}: {counts}");
+    }
+    // The type names and QoS that RViz, Foxglove and Nav2 subscribe with.
+    let pubs = &got["publications"];
+    for (topic, ty, durability) in [
+        (
+            "rt/map",
+            "nav_msgs::msg::dds_::OccupancyGrid_",
+            "TransientLocal",
+        ),
+        ("rt/tf", "tf2_msgs::msg::dds_::TFMessage_", "Volatile"),
+        (
+            "rt/pose",
+            "geometry_msgs::msg::dds_::PoseWithCovarianceStamped_",
+            "Volatile",
+        ),
+        (
+            "rt/polymap/segments",
+            "visualization_msgs::msg::dds_::MarkerArray_",
+            "TransientLocal",
+        ),
+        (
+            "rt/polymap/status",
+            "diagnostic_msgs::msg::dds_::DiagnosticArray_",
+            "Volatile",
+        ),
+    ] {
+        let p = &pubs[topic];
+        assert_eq!(p["type"], ty, "{topic}: {pubs}");
+        assert_eq!(p["reliability"], "Reliability.Reliable", "{topic}: {pubs}");
+        assert_eq!(
+            p["durability"],
+            format!("Durability.{durability}"),
+            "{topic}"
+        );
+    }
+    // With odometry, map → odom (the recording's odometry frame), so map → odom → base chain.
+    assert_eq!(got["tf_edges"], serde_json::json!(["map->odom"]), "{got}");
+    assert_eq!(got["grid"]["frame"], "map");
+    assert!(
+        got["grid"]["occupied"].as_u64().unwrap() > 100,
+        "{}",
+        got["grid"]
+    );
+    assert!(got["markers"]["line_strips"].as_u64().unwrap() >= 1);
+    assert_eq!(got["markers"]["first_action"], 3, "DELETEALL first");
+    assert_eq!(got["status"]["name"], "polymap: tracking");
+    let poses = got["poses"].as_array().unwrap();
+    assert_eq!(poses[0]["frame"], "map");
+    assert!(poses.iter().all(|p| p["cov_xx"].as_f64().unwrap() > 0.0));
+
+    // The run folder on SIGINT is `polymap map`'s on the same scans, pose for pose.
+    let offline = dir.path().join("offline");
+    let o = polymap(&[
+        "map",
+        mcap.to_str().unwrap(),
+        "-o",
+        offline.to_str().unwrap(),
+        "-q",
+        "--max-scans",
+        "600",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let s = summary(&live);
+    assert_eq!(s["live"]["dropped_scans"], 0, "{}", s["live"]);
+    assert_eq!(
+        std::fs::read_to_string(live.join("trajectory.tum")).unwrap(),
+        std::fs::read_to_string(offline.join("trajectory.tum")).unwrap()
+    );
+    assert!(live.join("map.json").is_file() && live.join("map.svg").is_file());
+    assert!(s["live"]["latency_ms"]["p99"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn the_node_outlives_a_publisher_that_goes_and_comes_back_and_a_wrong_type_on_its_topic() {
+    if !peer_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = recording(dir.path(), "hallway45");
+    let live = dir.path().join("live");
+    let node = start_node(112, &live, &[]);
+    let got = run_peer(
+        112,
+        dir.path(),
+        &[
+            "--recording",
+            mcap.to_str().unwrap(),
+            "--rate",
+            "20",
+            "--max-scans",
+            "300",
+            "--pause-after",
+            "150",
+            "--pause-s",
+            "1.5",
+            "--wrong-type",
+            "20",
+            "--no-odometry",
+        ],
+    );
+    let o = stop_node(node, "TERM");
+    assert!(
+        o.status.success(),
+        "SIGTERM ends the node with 0: {}",
+        text(&o)
+    );
+    assert_eq!(got["counts"]["pose"], 300, "{}", got["counts"]);
+    // Without odometry and without tf, the scans' frame is the robot's: map → laser.
+    assert_eq!(got["tf_edges"], serde_json::json!(["map->laser"]));
+    let s = summary(&live);
+    assert_eq!(s["live"]["scans_mapped"], 300, "{}", s["live"]);
+    assert_eq!(
+        std::fs::read_to_string(live.join("trajectory.tum"))
+            .unwrap()
+            .lines()
+            .count(),
+        300
+    );
+}
+
+#[test]
+fn a_node_stopped_while_scans_stream_saves_every_scan_it_took_and_no_cut_file() {
+    if !peer_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = recording(dir.path(), "hallway45");
+    let live = dir.path().join("live");
+    let node = start_node(113, &live, &[]);
+    let mut peer = peer_command(
+        113,
+        &dir.path().join("peer.json"),
+        &[
+            "--recording",
+            mcap.to_str().unwrap(),
+            "--rate",
+            "5",
+            "--no-odometry",
+        ],
+    )
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    // Stopped while the scans still come (the peer needs 30 s for the whole recording).
+    std::thread::sleep(Duration::from_secs(6));
+    let o = stop_node(node, "TERM");
+    let _ = peer.kill();
+    let _ = peer.wait();
+    assert!(o.status.success(), "{}", text(&o));
+    let s = summary(&live);
+    let mapped = s["live"]["scans_mapped"].as_u64().unwrap();
+    assert!(mapped > 10, "{}", s["live"]);
+    let lines = std::fs::read_to_string(live.join("trajectory.tum"))
+        .unwrap()
+        .lines()
+        .count() as u64;
+    assert_eq!(
+        lines, mapped,
+        "every scan handed to the mapper is in the trajectory"
+    );
+    // The folder is one run's: its manifest lists every file, whole.
+    let o = polymap(&["export", live.to_str().unwrap(), "--format", "png"]);
+    assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn the_node_localizes_in_and_continues_a_saved_map_as_the_offline_commands_do() {
+    if !peer_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = recording(dir.path(), "hallway45");
+    let saved = dir.path().join("saved");
+    let o = polymap(&[
+        "map",
+        mcap.to_str().unwrap(),
+        "-o",
+        saved.to_str().unwrap(),
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    for (domain, flag, offline_cmd) in [(114, "--localize", "localize"), (115, "--resume", "map")] {
+        let live = dir.path().join(format!("live{domain}"));
+        let node = start_node(domain, &live, &[flag, saved.to_str().unwrap()]);
+        let got = run_peer(
+            domain,
+            dir.path(),
+            &[
+                "--recording",
+                mcap.to_str().unwrap(),
+                "--rate",
+                "20",
+                "--max-scans",
+                "200",
+                "--no-odometry",
+            ],
+        );
+        let o = stop_node(node, "INT");
+        assert!(o.status.success(), "{flag}: {}", text(&o));
+        assert_eq!(got["counts"]["pose"], 200, "{flag}");
+        let offline = dir.path().join(format!("offline{domain}"));
+        let mut args = vec![
+            offline_cmd,
+            mcap.to_str().unwrap(),
+            "-o",
+            offline.to_str().unwrap(),
+        ];
+        args.extend(["-q", "--max-scans", "200", "--topic", "/scan"]);
+        let saved_s = saved.to_str().unwrap();
+        if offline_cmd == "localize" {
+            args.extend(["--map", saved_s]);
+        } else {
+            args.extend(["--resume", saved_s]);
+        }
+        let o = polymap(&args);
+        assert!(o.status.success(), "{}", text(&o));
+        assert_eq!(
+            std::fs::read_to_string(live.join("trajectory.tum")).unwrap(),
+            std::fs::read_to_string(offline.join("trajectory.tum")).unwrap(),
+            "{flag}"
+        );
+    }
+}
