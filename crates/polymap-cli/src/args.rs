@@ -68,6 +68,10 @@ pub struct Ros2Args {
     /// Output directory, written on Ctrl-C or SIGTERM (created if missing).
     #[arg(short, long, default_value = "out")]
     pub output: PathBuf,
+    /// Also write the output directory every this many seconds while mapping (0: only at the
+    /// end), so that a crash loses at most that much.
+    #[arg(long, default_value_t = 60.0, value_parser = parse_period)]
+    pub save_period: f64,
     /// A TOML configuration file (see `polymap map --print-config`); may be repeated.
     #[arg(long)]
     pub config: Vec<PathBuf>,

@@ -12,19 +12,23 @@ use polymap::config::Config;
 use polymap::geometry::Pose2;
 use polymap::loops::SavedNode;
 use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
+use polymap::scan::Stamp;
 use polymap_export::formats::Format;
 use polymap_export::report::MapConsistency;
+use polymap_export::report::ReportData;
 use polymap_io::carmen::CarmenStats;
 use polymap_io::log::{LogKind, LogOptions, LogSource, LogStats};
 use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{FRAME_FIRST_SCAN, FRAME_ODOMETRY, MapJson, read_map_json};
-use polymap_io::snapshot::{MapSnapshot, Polyline};
+use polymap_io::snapshot::{MapSnapshot, Polyline, ScanPoints};
+use polymap_io::tum::StampedPose;
 use polymap_pipeline::folder::{
     DIAGNOSTICS_FILE, RunFiles, RunFolder, check_output_apart, percentiles_ms, summary_json,
 };
 use polymap_pipeline::manifest::FolderLock;
 use polymap_pipeline::pipeline::{self, PipelineOptions, RunRecord, ScanEvent};
 use serde_json::json;
+use std::time::Instant;
 
 use crate::args::{LocalizeArgs, MapArgs};
 use crate::config_file::{effective_config, to_toml};
@@ -57,6 +61,9 @@ pub trait Live {
     fn stop_on(&mut self, stop: Arc<AtomicBool>);
     /// After each scan is mapped.
     fn on_scan(&mut self, event: &ScanEvent<'_>);
+    /// Asked after each scan: true when the run folder should be written now (a periodic save,
+    /// so that a crash loses at most the scans since).
+    fn save_due(&mut self) -> bool;
     /// After the last scan: what the run's summary.json says of the live run (`live`).
     fn finish(&mut self, mapper: &Mapper) -> serde_json::Value;
 }
@@ -258,7 +265,7 @@ pub fn run_with(
         &folder,
         stop,
         saved.as_ref(),
-        live.as_deref_mut(),
+        live.as_deref_mut().map(|l| (l, log_name.as_str())),
     )?;
     check_not_empty(&log_name, &record, counts.as_ref().map(|c| &c.1))?;
     let stats = counts.map(|c| c.0);
@@ -396,7 +403,7 @@ fn map_source(
     folder: &RunFolder,
     stop: Option<Arc<AtomicBool>>,
     saved: Option<&SavedMap>,
-    mut live: Option<&mut (dyn Live + '_)>,
+    mut live: Option<(&mut (dyn Live + '_), &str)>,
 ) -> Result<Mapped> {
     let bar = progress_bar(a.quiet, source.size_bytes());
     let mut diag = match a.diagnostics {
@@ -418,10 +425,23 @@ fn map_source(
     // A run on a saved map is placed by its first confident scan (or by --initial-pose); one
     // that is not after `tracking.start_search_scans` scans stops, rather than map on blind.
     let mut placed = saved.is_none() || a.initial_pose.is_some();
+    // A live run's stamps, for its periodic saves.
+    let mut stamps: Vec<Stamp> = Vec::new();
     let search_scans = config.tracking.start_search_scans as usize;
     let outcome = pipeline::run(source, config, options, |e: &ScanEvent<'_>| {
-        if let Some(l) = live.as_deref_mut() {
+        if let Some((l, log)) = live.as_mut() {
             l.on_scan(e);
+            stamps.push(e.stamp.clone());
+            if l.save_due() {
+                let saved_at = Instant::now();
+                checkpoint(log, config, a, folder, e, &stamps, saved)?;
+                eprintln!(
+                    "polymap: saved the {} scans mapped so far in {} ({:.0} ms)",
+                    stamps.len(),
+                    folder.path().display(),
+                    saved_at.elapsed().as_secs_f64() * 1e3
+                );
+            }
         }
         if let Some(w) = diag.as_mut() {
             w.write(&e.stamp.text, e.update)?;
@@ -465,6 +485,26 @@ fn snapshot(
     points: bool,
     saved: Option<&SavedMap>,
 ) -> MapSnapshot {
+    let points = run.scan_points.as_ref().filter(|_| points);
+    snapshot_of(
+        log,
+        config,
+        &run.mapper,
+        run.trajectory.clone(),
+        points,
+        saved,
+    )
+}
+
+/// The map, trajectory and (given `scan_points`) points for the pictures, from the mapper.
+fn snapshot_of(
+    log: &str,
+    config: &Config,
+    mapper: &Mapper,
+    trajectory: Vec<StampedPose>,
+    scan_points: Option<&ScanPoints>,
+    saved: Option<&SavedMap>,
+) -> MapSnapshot {
     // A saved map keeps its frame.
     let frame = match saved {
         Some(s) => s.map.frame.as_str(),
@@ -476,35 +516,81 @@ fn snapshot(
         Some(MapRole::Build) => " continuing a saved map",
         None => "",
     };
-    let segments = run.mapper.segments();
-    let observations = run.mapper.observations();
-    let polylines: Vec<Polyline> = run
-        .mapper
+    let segments = mapper.segments();
+    let observations = mapper.observations();
+    let polylines: Vec<Polyline> = mapper
         .polylines()
         .into_iter()
         .map(|segments| Polyline { segments })
         .collect();
-    let poses: Vec<_> = run.trajectory.iter().map(|p| p.map_from_robot).collect();
-    let points = match (&run.scan_points, points) {
-        (Some(scans), true) => scans.in_map(&poses, MAX_PICTURE_POINTS),
-        _ => Vec::new(),
+    let poses: Vec<_> = trajectory.iter().map(|p| p.map_from_robot).collect();
+    let points = match scan_points {
+        Some(scans) => scans.in_map(&poses, MAX_PICTURE_POINTS),
+        None => Vec::new(),
     };
     MapSnapshot {
         frame: frame.to_owned(),
         title: format!(
             "{} — {} scans{what}, {} segments, {} polylines",
             quoted(log),
-            run.trajectory.len(),
+            trajectory.len(),
             segments.len(),
             polylines.len()
         ),
         segments,
         observations,
         polylines,
-        trajectory: run.trajectory.clone(),
+        trajectory,
         points,
-        scans_before: run.mapper.first_scan(),
+        scans_before: mapper.first_scan(),
     }
+}
+
+/// Writes the run folder in the middle of a live run: the map, the trajectory (with the loop
+/// corrections so far), the loop nodes, map.svg, and a summary.json marked `checkpoint` with
+/// the figures known mid-run. The end of the run writes the whole folder again.
+fn checkpoint(
+    log: &str,
+    config: &Config,
+    a: &MapArgs,
+    folder: &RunFolder,
+    e: &ScanEvent<'_>,
+    stamps: &[Stamp],
+    saved: Option<&SavedMap>,
+) -> Result<()> {
+    let mapper = e.mapper;
+    let trajectory = stamps
+        .iter()
+        .zip(mapper.trajectory())
+        .map(|(stamp, p)| StampedPose {
+            stamp: stamp.clone(),
+            map_from_robot: *p,
+        })
+        .collect();
+    let snapshot = snapshot_of(log, config, mapper, trajectory, None, saved);
+    let summary = json!({
+        "log": log,
+        "checkpoint": true,
+        "scans": stamps.len(),
+        "segments": snapshot.segments.len(),
+        "polylines": snapshot.polylines.len(),
+        "loop_closures": mapper.loop_closures(),
+        "tracking": mapper.tracking_summary(),
+        "map_role": mapper.role(),
+        "placed": mapper.placed(),
+        "scans_before": mapper.first_scan(),
+        "config": serde_json::to_value(config).unwrap_or(serde_json::Value::Null),
+    });
+    folder.write_run(&RunFiles {
+        snapshot: &snapshot,
+        loop_nodes: &mapper.loop_nodes(),
+        summary: &summary,
+        history: &ReportData::default(),
+        formats: &[],
+        rays: None,
+        resolution_m: a.resolution,
+    })?;
+    Ok(())
 }
 
 fn reader_json(s: &CarmenStats) -> serde_json::Value {

@@ -3,7 +3,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use polymap::mapper::{MapRole, Mapper};
@@ -24,6 +24,8 @@ const STOP_POLL: Duration = Duration::from_millis(20);
 struct NodeRun {
     node: Option<Ros2Node>,
     topic: String,
+    save_period: Option<Duration>,
+    last_save: Instant,
 }
 
 impl Live for NodeRun {
@@ -46,6 +48,17 @@ impl Live for NodeRun {
         });
     }
 
+    fn save_due(&mut self) -> bool {
+        let Some(period) = self.save_period else {
+            return false;
+        };
+        if self.last_save.elapsed() < period {
+            return false;
+        }
+        self.last_save = Instant::now();
+        true
+    }
+
     fn on_scan(&mut self, event: &ScanEvent<'_>) {
         if let Some(node) = self.node.as_mut() {
             node.on_scan(event.stamp, event.update, event.mapper);
@@ -59,12 +72,7 @@ impl Live for NodeRun {
         let queue = node.queue();
         let report = node.finish(mapper);
         let received = queue.received();
-        let [p50, p95, p99] = percentiles_ms(&report.latencies);
-        let max = report
-            .latencies
-            .iter()
-            .max()
-            .map_or(0.0, |d| d.as_secs_f64() * 1e3);
+        let [p50, p99, max] = percentiles_ms(&report.latencies);
         json!({
             "topic": self.topic,
             "scan_messages": received.scan_messages,
@@ -72,7 +80,7 @@ impl Live for NodeRun {
             "dropped_scans": received.dropped,
             "bad_messages": received.bad_messages,
             "odometry_messages": received.odometry_messages,
-            "latency_ms": { "p50": p50, "p95": p95, "p99": p99, "max": max },
+            "latency_ms": { "p50": p50, "p99": p99, "max": max },
             "publish_failures": report.publish_failures,
             "grids_published": report.grids_published,
         })
@@ -142,6 +150,8 @@ pub fn run(a: &Ros2Args) -> Result<()> {
     let mut live = NodeRun {
         node: Some(node),
         topic: a.scan_topic.clone(),
+        save_period: (a.save_period > 0.0).then(|| Duration::from_secs_f64(a.save_period)),
+        last_save: Instant::now(),
     };
     run_with(&map_args, saved, Some(&mut live))
 }

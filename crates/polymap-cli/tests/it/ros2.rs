@@ -371,3 +371,75 @@ fn the_node_localizes_in_and_continues_a_saved_map_as_the_offline_commands_do() 
         );
     }
 }
+
+#[test]
+fn a_node_killed_mid_run_leaves_its_last_periodic_save_whole() {
+    if !peer_available() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let mcap = recording(dir.path(), "hallway45");
+    let live = dir.path().join("live");
+    let mut node = start_node(116, &live, &["--save-period", "1"]);
+    let mut peer = peer_command(
+        116,
+        &dir.path().join("peer.json"),
+        &[
+            "--recording",
+            mcap.to_str().unwrap(),
+            "--rate",
+            "5",
+            "--no-odometry",
+        ],
+    )
+    .stdout(Stdio::null())
+    .stderr(Stdio::null())
+    .spawn()
+    .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(60);
+    while !live.join("summary.json").is_file() {
+        assert!(
+            Instant::now() < deadline,
+            "no periodic save within a minute"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    std::thread::sleep(Duration::from_millis(2500));
+    // A crash: no chance to save at the end.
+    node.kill().unwrap();
+    let _ = node.wait();
+    let _ = peer.kill();
+    let _ = peer.wait();
+    let s = summary(&live);
+    assert_eq!(s["checkpoint"], true, "{s}");
+    let scans = s["scans"].as_u64().unwrap();
+    assert!(scans > 10, "{s}");
+    let lines = std::fs::read_to_string(live.join("trajectory.tum"))
+        .unwrap()
+        .lines()
+        .count() as u64;
+    assert_eq!(lines, scans);
+    // Whole and usable: exported, and continued by a new run.
+    let o = polymap(&[
+        "export",
+        live.to_str().unwrap(),
+        "--format",
+        "png",
+        "--log",
+        mcap.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let more = dir.path().join("more");
+    let o = polymap(&[
+        "map",
+        mcap.to_str().unwrap(),
+        "-o",
+        more.to_str().unwrap(),
+        "-q",
+        "--resume",
+        live.to_str().unwrap(),
+        "--max-scans",
+        "50",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+}
