@@ -30,7 +30,8 @@ const READ_BYTES: usize = 1 << 20;
 /// record) yields what comes before the cut, with a warning saying where the file ends.
 ///
 /// Messages of types polymap does not decode (anything but `LaserScan`, `Odometry` and
-/// `TFMessage`, [`Connection::is_decoded`]) are counted but not copied: their [`RawMessage::data`] is empty.
+/// `TFMessage`, [`Connection::is_decoded`]) are counted but not copied: their
+/// [`RawMessage::data`] is empty.
 pub struct McapReader {
     file: File,
     path: PathBuf,

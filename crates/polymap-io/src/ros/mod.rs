@@ -16,8 +16,8 @@
 //! `tf2_msgs/TFMessage` by hand ([`wire`]: ROS 1 serialization and CDR in both byte orders),
 //! [`tf`] keeps the transforms of `/tf` and `/tf_static` as a tree to look up, [`scans`] turns
 //! a laser topic into [`RangeScan`](polymap::scan::RangeScan)s with the laser's mounting from tf
-//! and odometry interpolated to each scan's stamp, and [`survey()`] counts what a file holds. [`record`] writes scans as MCAP
-//! files and bags (the simulator's ROS output).
+//! and odometry interpolated to each scan's stamp, and [`survey()`] counts what a file holds.
+//! [`record`] writes scans as MCAP files and bags, with tf (the simulator's ROS output).
 
 pub mod error;
 pub mod folder;

@@ -39,7 +39,8 @@
 //! tf.insert(&TransformStampedMsg::from_pose(t(0), "base_link", "/laser", &mount), true).unwrap();
 //! for s in 0..3 {
 //!     let odom = Pose2::new(s as f64, 0.0, 0.0);
-//!     tf.insert(&TransformStampedMsg::from_pose(t(s), "odom", "base_link", &odom), false).unwrap();
+//!     let moved = TransformStampedMsg::from_pose(t(s), "odom", "base_link", &odom);
+//!     tf.insert(&moved, false).unwrap();
 //! }
 //! let at = 1_500_000_000; // nanoseconds: 1.5 s
 //! let robot_from_laser = tf.lookup("base_link", "laser", at).unwrap().pose;
@@ -98,7 +99,8 @@ pub enum TfError {
     },
     /// Two frames in different trees.
     #[error(
-        "frames {target_frame:?} and {source_frame:?} are not connected in tf (their roots are {target_root:?} and {source_root:?})"
+        "frames {target_frame:?} and {source_frame:?} are not connected in tf (their roots are \
+         {target_root:?} and {source_root:?})"
     )]
     NotConnected {
         /// The frame asked for as target.
