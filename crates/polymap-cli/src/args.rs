@@ -188,7 +188,8 @@ pub struct MapArgs {
     pub preset: String,
     /// Start each ICP from the log's odometry increment (map in odometry's frame); also runs ICP
     /// from every start and keeps the most inliers, which measured best with odometry. ROS:
-    /// odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp.
+    /// odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp, or,
+    /// without an odometry topic, tf's odom → base frame.
     #[arg(long)]
     pub odometry: bool,
     /// Skip bad input — malformed log lines, undecodable messages, corrupt chunks — (counted
