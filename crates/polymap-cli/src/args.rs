@@ -217,7 +217,9 @@ pub struct SimulateArgs {
     #[arg(long)]
     pub list: bool,
     /// Also write the world as ROS recordings: NAME.mcap (ROS 2, zstd chunks) and NAME.bag
-    /// (ROS 1, lz4 chunks), with the laser on /scan and odometry on /odom.
+    /// (ROS 1, lz4 chunks), with the laser on /scan, odometry on /odom, and tf: the laser
+    /// mounted 0.25 m ahead of the robot (base_link → laser on /tf_static, also in the CARMEN
+    /// log) and odom → base_link on /tf. The truth is the robot's (base_link) trajectory.
     #[arg(long)]
     pub ros: bool,
     /// The laser's field of view, degrees (one beam per degree, centred ahead; e.g. 180, 270,
@@ -243,9 +245,15 @@ pub struct MapArgs {
     #[arg(long)]
     pub topic: Option<String>,
     /// ROS: the nav_msgs/Odometry topic (default: the only one in the file) that --odometry
-    /// tracks from, or that otherwise witnesses the tracked steps.
+    /// tracks from, or that otherwise witnesses the tracked steps. Without one, tf's odom →
+    /// base frame is the odometry, where the recording has /tf.
     #[arg(long)]
     pub odom_topic: Option<String>,
+    /// ROS: the robot's frame in tf (default: base_link, else base_footprint). Each scan's
+    /// laser is placed by tf from it to the scan's frame_id (/tf_static, /tf); without tf the
+    /// laser is taken at the robot's origin.
+    #[arg(long, value_name = "FRAME")]
+    pub base_frame: Option<String>,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "out")]
     pub output: PathBuf,
@@ -258,7 +266,8 @@ pub struct MapArgs {
     pub preset: String,
     /// Start each ICP from the log's odometry increment (map in odometry's frame); also runs ICP
     /// from every start and keeps the most inliers, which measured best with odometry. ROS:
-    /// odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp.
+    /// odometry from nav_msgs/Odometry (--odom-topic), interpolated to each scan's stamp, or,
+    /// without an odometry topic, tf's odom → base frame.
     #[arg(long)]
     pub odometry: bool,
     /// Skip bad input — malformed log lines, undecodable messages, corrupt chunks — (counted

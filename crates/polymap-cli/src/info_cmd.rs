@@ -74,13 +74,36 @@ fn ros_info(topics: &[TopicSummary]) {
         .filter(|t| t.connection.is_odometry())
         .map(|t| format!("{} ({} messages)", quoted(&t.connection.topic), t.messages))
         .collect();
-    if odom.is_empty() {
+    let tf: Vec<String> = topics
+        .iter()
+        .filter(|t| {
+            let name = t.connection.topic.as_str();
+            t.connection.is_tf()
+                && matches!(name.strip_prefix('/').unwrap_or(name), "tf" | "tf_static")
+        })
+        .map(|t| format!("{} ({} messages)", quoted(&t.connection.topic), t.messages))
+        .collect();
+    if odom.is_empty() && !tf.is_empty() {
+        say!(
+            "odometry: no topic; tf's odom → base_link, where tf has it, tracks with --odometry \
+             and otherwise witnesses the tracked steps"
+        );
+    } else if odom.is_empty() {
         say!("odometry: none (map without --odometry)");
     } else {
         say!(
             "odometry: {} (map with --odometry to track from it; without, it witnesses the \
              tracked steps: the only topic, or --odom-topic's)",
             odom.join(", ")
+        );
+    }
+    if tf.is_empty() {
+        say!("tf: none (the laser is taken at the robot's origin)");
+    } else {
+        say!(
+            "tf: {} (the laser is placed by the transform from base_link, or --base-frame, to \
+             its frame)",
+            tf.join(", ")
         );
     }
 }

@@ -248,6 +248,7 @@ pub fn run_with(
                 topic: a.topic.clone(),
                 odometry: a.odometry,
                 odom_topic: a.odom_topic.clone(),
+                base_frame: a.base_frame.clone(),
                 // Without --odometry the log's odometry, where a ROS file has it, still
                 // witnesses the steps (CARMEN scans carry theirs anyway).
                 witness_odometry: true,
@@ -268,6 +269,7 @@ pub fn run_with(
         live.as_deref_mut().map(|l| (l, log_name.as_str())),
     )?;
     check_not_empty(&log_name, &record, counts.as_ref().map(|c| &c.1))?;
+    let tf = counts.as_ref().and_then(|c| c.1.tf.clone());
     let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
     let warn_above = config.observe.warn_seen_through_above;
@@ -289,7 +291,12 @@ pub fn run_with(
         .prune_contradicted
         .then(|| record.mapper.prune_contradicted());
     let snapshot = snapshot(&log_name, &config, &record, a.svg_points, saved.as_ref());
-    let reader = stats.as_ref().map_or(serde_json::Value::Null, reader_json);
+    let mut reader = stats.as_ref().map_or(serde_json::Value::Null, reader_json);
+    // What tf gave the scans of a ROS recording that has tf: the robot's frame, the scans
+    // placed and not, the odometry.
+    if let (Some(tf), Some(object)) = (tf, reader.as_object_mut()) {
+        object.insert("tf".into(), serde_json::to_value(tf)?);
+    }
     let every = [a.every, a.every_offset];
     let mut summary = summary_json(
         &log_name,

@@ -120,6 +120,7 @@ pub fn run(a: &Ros2Args) -> Result<()> {
         quiet: a.quiet,
         resume: a.resume.clone(),
         initial_pose: a.initial_pose,
+        base_frame: a.base_frame.clone(),
     };
     let options = NodeOptions {
         scan_topic: a.scan_topic.clone(),

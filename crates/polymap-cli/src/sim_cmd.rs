@@ -3,12 +3,13 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow};
+use polymap::geometry::Pose2;
 use polymap::map::MapSegment;
 use polymap_io::carmen::write_flaser_log;
 use polymap_io::map_json::{FRAME_FIRST_SCAN, MapJson, write_map_json};
 use polymap_io::ros::mcap_file::McapCompression;
 use polymap_io::ros::ros1::BagCompression;
-use polymap_io::ros::{float32_scan, write_bag, write_mcap};
+use polymap_io::ros::{RecordOptions, float32_scan, write_bag_with, write_mcap_with};
 use polymap_io::tum::{StampedPose, write_tum};
 use polymap_sim::{LaserParams, SimRun, World, simulate, world_by_name};
 use serde_json::json;
@@ -25,11 +26,23 @@ pub struct SimFiles {
     pub ros: Option<(PathBuf, PathBuf)>,
 }
 
+/// Where the laser sits on the robot in a world simulated with `--ros` whose own laser sits at
+/// the robot's origin: 0.25 m ahead of it, facing forward, so that the recordings' tf
+/// (`base_link → laser` on `/tf_static`) matters. The truth stays the robot's (`base_link`)
+/// trajectory.
+pub const ROS_LASER_MOUNT: Pose2 = Pose2 {
+    x_m: 0.25,
+    y_m: 0.0,
+    theta_rad: 0.0,
+};
+
 /// What `polymap simulate` writes besides the CARMEN log.
 #[derive(Debug, Clone, Copy)]
 pub struct SimOutput {
-    /// Also write NAME.mcap and NAME.bag. The scans are then rounded to `float32` (as a ROS
-    /// message holds them) in every file, so that all three read back to the same scans.
+    /// Also write NAME.mcap and NAME.bag, with the laser mounted at [`ROS_LASER_MOUNT`] (in
+    /// every file: the CARMEN log says it with `PARAM robot_frontlaser_offset`, the recordings
+    /// with tf). The scans are then rounded to `float32` (as a ROS message holds them) in every
+    /// file, so that all three read back to the same scans.
     pub ros: bool,
     /// The laser's field of view, degrees (one beam per degree); `None`: the world's own laser.
     pub fov_deg: Option<u16>,
@@ -74,7 +87,8 @@ pub fn simulate_to(name: &str, dir: &Path, seed: u64) -> Result<SimFiles> {
 }
 
 /// [`simulate_to`] with, if asked, a laser of `output.fov_deg` degrees and, with `output.ros`, the world
-/// also as `NAME.mcap` (zstd chunks) and `NAME.bag` (lz4 chunks).
+/// also as `NAME.mcap` (zstd chunks) and `NAME.bag` (lz4 chunks), the laser mounted at
+/// [`ROS_LASER_MOUNT`].
 pub fn simulate_with(name: &str, dir: &Path, seed: u64, output: SimOutput) -> Result<SimFiles> {
     let names: Vec<String> = World::catalogue().into_iter().map(|w| w.name).collect();
     let world = world_by_name(name)
@@ -86,6 +100,9 @@ pub fn simulate_with(name: &str, dir: &Path, seed: u64, output: SimOutput) -> Re
         params.laser.num_beams = geometry.num_beams;
         params.laser.fov_rad = geometry.fov_rad;
         params.laser.angle_min_rad = geometry.angle_min_rad;
+    }
+    if output.ros && params.laser.robot_from_laser == Pose2::IDENTITY {
+        params.laser.robot_from_laser = ROS_LASER_MOUNT;
     }
     let mut run = simulate(&world, &params, seed);
     if output.ros {
@@ -105,8 +122,13 @@ pub fn simulate_with(name: &str, dir: &Path, seed: u64, output: SimOutput) -> Re
     };
     write_flaser_log(&files.log, &run.scans)?;
     if let Some((mcap, bag)) = &files.ros {
-        write_mcap(mcap, &run.scans, McapCompression::Zstd)?;
-        write_bag(bag, &run.scans, BagCompression::Lz4)?;
+        // The scans, /odom, and tf: base_link → laser (static), odom → base_link.
+        let with_tf = RecordOptions {
+            odometry_topic: true,
+            tf: true,
+        };
+        write_mcap_with(mcap, &run.scans, McapCompression::Zstd, with_tf)?;
+        write_bag_with(bag, &run.scans, BagCompression::Lz4, with_tf)?;
     }
     write_tum(&files.truth, &truth_trajectory(&run))?;
     let walls: Vec<MapSegment> = run

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use polymap::scan::RangeScan;
 
 use crate::carmen::{CarmenError, CarmenStats, ReaderOptions};
-use crate::ros::{RosError, RosFormat, RosScanOptions, RosScanReader, sniff};
+use crate::ros::{RosError, RosFormat, RosScanOptions, RosScanReader, TfStats, sniff};
 use crate::source::{self, ScanSource};
 
 /// The kinds of log polymap reads.
@@ -109,6 +109,9 @@ pub struct LogOptions {
     /// pass over the file, as a witness of the steps, best effort
     /// ([`RosScanOptions::witness_odometry`]).
     pub witness_odometry: bool,
+    /// ROS: the robot's frame in tf ([`RosScanOptions::base_frame`]; default `base_link`, else
+    /// `base_footprint`).
+    pub base_frame: Option<String>,
     /// CARMEN reader settings (its `skip_bad_lines` is taken from `skip_bad_input`).
     pub carmen: ReaderOptions,
 }
@@ -157,6 +160,8 @@ pub struct LogStats {
     pub odometry_bad_messages: u64,
     /// What the reader read past, for the user (a recording cut off, and where it ends).
     pub warnings: Vec<String>,
+    /// ROS: what tf gave the scans; `None` for a recording without tf, and for CARMEN.
+    pub tf: Option<TfStats>,
 }
 
 enum Inner {
@@ -204,6 +209,7 @@ impl LogSource {
                     odom_topic: options.odom_topic.clone(),
                     witness_odometry: options.witness_odometry,
                     skip_bad: options.skip_bad_input,
+                    base_frame: options.base_frame.clone(),
                     ..RosScanOptions::default()
                 };
                 Inner::Ros(Box::new(RosScanReader::open(path, format, &ros)?))
@@ -291,6 +297,7 @@ impl LogSource {
                     odometry_dropped: None,
                     odometry_bad_messages: 0,
                     warnings: Vec::new(),
+                    tf: None,
                 }
             }
             Inner::Live(l) => l.stats(),
@@ -311,6 +318,7 @@ impl LogSource {
                     odometry_dropped: s.odometry_dropped,
                     odometry_bad_messages: s.odometry_bad_messages,
                     warnings: s.warnings,
+                    tf: s.tf,
                 }
             }
         }
@@ -346,6 +354,7 @@ impl LogSource {
                                 s.odometry_bad_messages
                             )
                         }))
+                        .chain(s.tf.iter().flat_map(TfStats::warnings))
                         .chain((s.scans_outside_odometry > 0).then(|| {
                             format!(
                                 "{} scan(s) stamped outside the odometry's time span took the \

@@ -29,8 +29,9 @@ const READ_BYTES: usize = 1 << 20;
 /// span lost. A file that ends early (no footer, as a crashed recorder leaves it, or inside a
 /// record) yields what comes before the cut, with a warning saying where the file ends.
 ///
-/// Messages of types polymap does not decode (anything but `LaserScan` and `Odometry`) are
-/// counted but not copied: their [`RawMessage::data`] is empty.
+/// Messages of types polymap does not decode (anything but `LaserScan`, `Odometry` and
+/// `TFMessage`, [`Connection::is_decoded`]) are counted but not copied: their
+/// [`RawMessage::data`] is empty.
 pub struct McapReader {
     file: File,
     path: PathBuf,
@@ -300,7 +301,7 @@ fn handle_record(
             let &index = channels.get(&channel_id)?;
             let c = &connections[index];
             data.clear();
-            if c.is_laser_scan() || c.is_odometry() {
+            if c.is_decoded() {
                 data.extend_from_slice(&bytes);
             }
             Some((index, i128::from(log_time)))
@@ -382,8 +383,8 @@ impl McapWriter {
         })
     }
 
-    /// Declares a topic of `sensor_msgs/msg/LaserScan` or `nav_msgs/msg/Odometry`; returns its
-    /// channel id.
+    /// Declares a topic of `sensor_msgs/msg/LaserScan`, `nav_msgs/msg/Odometry` or
+    /// `tf2_msgs/msg/TFMessage`; returns its channel id.
     pub fn add_channel(&mut self, topic: &str, type_name: &str) -> Result<u16, RosError> {
         let schema = self
             .writer

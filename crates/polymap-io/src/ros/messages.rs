@@ -1,5 +1,6 @@
-//! The two message types polymap reads, decoded by hand: `sensor_msgs/LaserScan` and
-//! `nav_msgs/Odometry`, in ROS 1 serialization or CDR.
+//! The message types polymap reads, decoded by hand: `sensor_msgs/LaserScan`,
+//! `nav_msgs/Odometry` and `tf2_msgs/TFMessage` (also ROS 1's older `tf/tfMessage`), in ROS 1
+//! serialization or CDR.
 
 use polymap::geometry::Pose2;
 use polymap::scan::{RangeScan, Stamp};
@@ -227,7 +228,7 @@ impl LaserScanMsg {
 
     /// The scan for the mapper: stamp from `header.stamp`; readings that are NaN, ±inf, below
     /// `range_min` or above `range_max` become `+inf` (no-return); the laser frame is the robot
-    /// frame (no tf is read) and there is no odometry yet.
+    /// frame and there is no odometry yet (the scan reader sets both from tf or odometry).
     pub fn to_range_scan(&self) -> RangeScan {
         let (lo, hi) = (self.range_min, self.range_max);
         let ranges_m = self
@@ -374,6 +375,119 @@ impl OdometryMsg {
     }
 }
 
+/// One `geometry_msgs/TransformStamped`: where frame `child_frame` is in frame `parent_frame`
+/// at `stamp`, i.e. the transform `parent_from_child` (it maps points given in the child frame
+/// into the parent frame).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TransformStampedMsg {
+    /// `header.stamp`.
+    pub stamp: RosTime,
+    /// `header.frame_id`: the parent frame, as written (a leading `/` kept).
+    pub parent_frame: String,
+    /// `child_frame_id`, as written.
+    pub child_frame: String,
+    /// `transform.translation` x, y, z: the child frame's origin in the parent frame, metres.
+    pub translation_m: [f64; 3],
+    /// `transform.rotation` as `[x, y, z, w]` (a unit quaternion when well formed; the values
+    /// are kept as written and checked by [`TfBuffer`](super::tf::TfBuffer)).
+    pub rotation: [f64; 4],
+}
+
+/// The least bytes one `TransformStamped` takes in either serialization: stamp (8), two strings
+/// (4-byte length each, and CDR's NUL), seven `float64` (56). A count of transforms is checked
+/// against it before anything is decoded.
+const MIN_TRANSFORM_BYTES: usize = 8 + 4 + 4 + 56;
+
+impl TransformStampedMsg {
+    /// The transform of a planar pose: `parent_from_child = pose` (rotation about z).
+    pub fn from_pose(stamp: RosTime, parent_frame: &str, child_frame: &str, pose: &Pose2) -> Self {
+        let (s, c) = (pose.theta_rad / 2.0).sin_cos();
+        TransformStampedMsg {
+            stamp,
+            parent_frame: parent_frame.to_owned(),
+            child_frame: child_frame.to_owned(),
+            translation_m: [pose.x_m, pose.y_m, 0.0],
+            rotation: [0.0, 0.0, s, c],
+        }
+    }
+
+    fn decode(d: &mut Decoder<'_>, flavor: Flavor) -> Result<Self, MessageProblem> {
+        let (stamp, parent_frame) = decode_header(d, flavor)?;
+        let child_frame = d.string("child_frame_id")?;
+        let mut translation_m = [0.0; 3];
+        for v in &mut translation_m {
+            *v = d.f64("transform.translation")?;
+        }
+        let mut rotation = [0.0; 4];
+        for v in &mut rotation {
+            *v = d.f64("transform.rotation")?;
+        }
+        Ok(TransformStampedMsg {
+            stamp,
+            parent_frame,
+            child_frame,
+            translation_m,
+            rotation,
+        })
+    }
+
+    fn encode(&self, e: &mut Encoder, flavor: Flavor, seq: u32) {
+        encode_header(e, flavor, seq, &self.stamp, &self.parent_frame);
+        e.string(&self.child_frame);
+        for v in self.translation_m.iter().chain(&self.rotation) {
+            e.f64(*v);
+        }
+    }
+}
+
+/// A `tf2_msgs/TFMessage` (ROS 1 and ROS 2; ROS 1's `tf/tfMessage` has the same layout): the
+/// transforms published together on `/tf` or `/tf_static`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct TfMessage {
+    /// The `transforms` array, in message order.
+    pub transforms: Vec<TransformStampedMsg>,
+}
+
+impl TfMessage {
+    /// Decodes a message. The count of transforms is checked against the bytes left (at least
+    /// 72 bytes each) before any is decoded; strings are checked against the message's length.
+    ///
+    /// ```
+    /// use polymap::geometry::Pose2;
+    /// use polymap_io::ros::{Flavor, RosTime, TfMessage, TransformStampedMsg};
+    /// let t = TransformStampedMsg::from_pose(
+    ///     RosTime { sec: 3, nanosec: 0 }, "base_link", "laser", &Pose2::new(0.25, 0.0, 0.0));
+    /// let msg = TfMessage { transforms: vec![t] };
+    /// for flavor in [Flavor::Ros1, Flavor::CdrLittle, Flavor::CdrBig] {
+    ///     assert_eq!(TfMessage::decode(&msg.encode(flavor, 7), flavor).unwrap(), msg);
+    /// }
+    /// ```
+    pub fn decode(data: &[u8], flavor: Flavor) -> Result<Self, MessageProblem> {
+        let mut d = match flavor {
+            Flavor::Ros1 => Decoder::ros1(data),
+            _ => Decoder::cdr(data)?,
+        };
+        let flavor = d.flavor();
+        let n = d.count_min("transforms", MIN_TRANSFORM_BYTES)?;
+        let mut transforms = Vec::with_capacity(n);
+        for _ in 0..n {
+            transforms.push(TransformStampedMsg::decode(&mut d, flavor)?);
+        }
+        d.finish()?;
+        Ok(TfMessage { transforms })
+    }
+
+    /// Encodes the message; ROS 1 headers get sequence number `seq`.
+    pub fn encode(&self, flavor: Flavor, seq: u32) -> Vec<u8> {
+        let mut e = Encoder::new(flavor);
+        e.u32(u32::try_from(self.transforms.len()).unwrap_or(u32::MAX));
+        for t in &self.transforms {
+            t.encode(&mut e, flavor, seq);
+        }
+        e.finish()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -392,6 +506,113 @@ mod tests {
             range_max: 10.0,
             ranges: vec![1.0; n],
             intensity_count: 0,
+        }
+    }
+
+    fn tf_message() -> TfMessage {
+        let t = |sec, parent: &str, child: &str, x: f64, yaw: f64| {
+            TransformStampedMsg::from_pose(
+                RosTime { sec, nanosec: 250 },
+                parent,
+                child,
+                &Pose2::new(x, -0.5, yaw),
+            )
+        };
+        TfMessage {
+            transforms: vec![
+                t(1_700_000_000, "odom", "base_link", 3.5, 2.0),
+                t(1_700_000_000, "/base_link", "laser_front", 0.25, -0.1),
+            ],
+        }
+    }
+
+    #[test]
+    fn tf_messages_round_trip_in_both_serializations() {
+        let msg = tf_message();
+        for flavor in [Flavor::Ros1, Flavor::CdrLittle, Flavor::CdrBig] {
+            let bytes = msg.encode(flavor, 42);
+            assert_eq!(
+                TfMessage::decode(&bytes, flavor).unwrap(),
+                msg,
+                "{flavor:?}"
+            );
+        }
+        // ROS 1: a count, then per transform seq, stamp, two strings without NUL, 7 doubles.
+        let ros1 = msg.encode(Flavor::Ros1, 42);
+        let strings = "odom".len() + "base_link".len() + "/base_link".len() + "laser_front".len();
+        assert_eq!(ros1.len(), 4 + 2 * (12 + 8 + 56) + strings);
+        assert_eq!(&ros1[..8], &[2, 0, 0, 0, 42, 0, 0, 0]);
+        let empty = TfMessage::default();
+        assert_eq!(
+            TfMessage::decode(&empty.encode(Flavor::CdrLittle, 0), Flavor::CdrLittle).unwrap(),
+            empty
+        );
+    }
+
+    /// The `tf2_msgs/msg/TFMessage` of the rosbag2 conformance recordings (written by ROS 2):
+    /// `test_frame` → `child_frame`, translation (1, 2, 3), identity rotation.
+    #[test]
+    fn a_tf_message_written_by_ros_2_decodes() {
+        let hex = "0001000001000000FC6E446800D0EE2E0B000000746573745F6672616D6500000C0000006368\
+                   696C645F6672616D650000000000000000000000F03F000000000000004000000000000008400000\
+                   00000000000000000000000000000000000000000000000000000000F03F";
+        let bytes: Vec<u8> = (0..hex.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).unwrap())
+            .collect();
+        let msg = TfMessage::decode(&bytes, Flavor::CdrLittle).unwrap();
+        assert_eq!(msg.transforms.len(), 1);
+        let t = &msg.transforms[0];
+        assert_eq!(
+            (t.parent_frame.as_str(), t.child_frame.as_str()),
+            ("test_frame", "child_frame")
+        );
+        assert_eq!(t.translation_m, [1.0, 2.0, 3.0]);
+        assert_eq!(t.rotation, [0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(t.stamp.sec, 1_749_315_324);
+        // Encoding it again gives the same bytes.
+        assert_eq!(msg.encode(Flavor::CdrLittle, 0), bytes);
+    }
+
+    /// A cut, a count beyond the message, bytes left over, and flipped bits are errors (or a
+    /// message of other values), never a panic nor an allocation by the count.
+    #[test]
+    fn malformed_tf_messages_are_errors() {
+        for flavor in [Flavor::Ros1, Flavor::CdrLittle, Flavor::CdrBig] {
+            let bytes = tf_message().encode(flavor, 1);
+            for cut in 0..bytes.len() {
+                assert!(
+                    TfMessage::decode(&bytes[..cut], flavor).is_err(),
+                    "{flavor:?} {cut}"
+                );
+            }
+            let mut long = bytes.clone();
+            long.extend_from_slice(&[0; 8]);
+            assert!(matches!(
+                TfMessage::decode(&long, flavor),
+                Err(MessageProblem::TrailingBytes { .. })
+            ));
+            let mut huge = bytes.clone();
+            let at = if flavor == Flavor::Ros1 { 0 } else { 4 };
+            huge[at..at + 4].copy_from_slice(&[0xff; 4]);
+            assert!(matches!(
+                TfMessage::decode(&huge, flavor),
+                Err(MessageProblem::CountTooLarge {
+                    field: "transforms",
+                    count: u32::MAX,
+                    ..
+                })
+            ));
+            let mut state = 0x2545_f491_4f6c_dd1du64;
+            for _ in 0..2_000 {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                let mut flipped = bytes.clone();
+                let i = (state % flipped.len() as u64) as usize;
+                flipped[i] ^= 1 << (state >> 60 & 7);
+                let _ = TfMessage::decode(&flipped, flavor);
+            }
         }
     }
 

@@ -12,11 +12,12 @@
 //! - `sqlite` (feature `sqlite`, on by default): rosbag2 `.db3` files.
 //! - [`folder`]: rosbag2 folders (`metadata.yaml` and its storage files).
 //!
-//! On top of them, [`messages`] decodes `sensor_msgs/LaserScan` and `nav_msgs/Odometry` by
-//! hand ([`wire`]: ROS 1 serialization and CDR in both byte orders), [`scans`] turns a laser
-//! topic into [`RangeScan`](polymap::scan::RangeScan)s with odometry interpolated to each
-//! scan's stamp, and [`survey()`] counts what a file holds. [`record`] writes scans as MCAP
-//! files and bags (the simulator's ROS output).
+//! On top of them, [`messages`] decodes `sensor_msgs/LaserScan`, `nav_msgs/Odometry` and
+//! `tf2_msgs/TFMessage` by hand ([`wire`]: ROS 1 serialization and CDR in both byte orders),
+//! [`tf`] keeps the transforms of `/tf` and `/tf_static` as a tree to look up, [`scans`] turns
+//! a laser topic into [`RangeScan`](polymap::scan::RangeScan)s with the laser's mounting from tf
+//! and odometry interpolated to each scan's stamp, and [`survey()`] counts what a file holds.
+//! [`record`] writes scans as MCAP files and bags, with tf (the simulator's ROS output).
 
 pub mod error;
 pub mod folder;
@@ -26,11 +27,13 @@ pub mod mcap_indexed;
 pub mod messages;
 pub mod record;
 pub mod ros1;
+mod scan_tf;
 pub mod scans;
 pub mod source;
 #[cfg(feature = "sqlite")]
 pub mod sqlite;
 pub mod survey;
+pub mod tf;
 mod typedefs;
 pub mod wire;
 
@@ -38,9 +41,16 @@ use std::path::Path;
 
 pub use error::{MessageProblem, RosError};
 pub use folder::parse_metadata;
-pub use messages::{LaserScanMsg, OdometryMsg, RosTime};
-pub use record::{LASER_FRAME, ODOM_TOPIC, SCAN_TOPIC, float32_scan, write_bag, write_mcap};
-pub use scans::{RosScanOptions, RosScanReader, RosStats};
+pub use messages::{LaserScanMsg, OdometryMsg, RosTime, TfMessage, TransformStampedMsg};
+pub use record::{
+    LASER_FRAME, ODOM_TOPIC, RecordOptions, SCAN_TOPIC, float32_scan, write_bag, write_bag_with,
+    write_mcap, write_mcap_with,
+};
+pub use scan_tf::{
+    BASE_FOOTPRINT, BASE_LINK, MAX_LEVEL_TILT_RAD, ODOM_FRAME, TF_STATIC_TOPIC, TF_TOPIC,
+    TfOdometry,
+};
+pub use scans::{FrameMiss, RosScanOptions, RosScanReader, RosStats, TfStats};
 pub use source::{Connection, Encoding, MessageSource, Place, RawMessage, ReadLimits};
 pub use survey::{LaserGeometry, TopicSummary, survey};
 pub use wire::Flavor;

@@ -1,6 +1,7 @@
-//! A laser topic as a stream of [`RangeScan`]s, with odometry interpolated to each scan.
+//! A laser topic as a stream of [`RangeScan`]s, with the laser's mounting from tf and odometry
+//! interpolated to each scan.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
 use polymap::geometry::Pose2;
@@ -9,6 +10,8 @@ use polymap::scan::RangeScan;
 use super::error::{MessageProblem, RosError};
 use super::mcap_indexed::summary_topics;
 use super::messages::{LaserScanMsg, OdometryMsg};
+pub use super::scan_tf::{FrameMiss, TfStats};
+use super::scan_tf::{TF_STATIC_TOPIC, TF_TOPIC, TfOdometry, TfTrack, tf_topic};
 use super::source::{Connection, MessageSource, ReadLimits};
 use super::survey::{TopicSummary, survey};
 use super::{RosFormat, open_source, open_source_for_topics};
@@ -20,6 +23,15 @@ const WITNESS_MAX_BRACKET_NS: i128 = 1_000_000_000;
 
 /// How many skipped-message errors are kept for the warning.
 const MAX_BAD_MESSAGES: usize = 10;
+
+/// A scan is held back until messages recorded this long after it (receive time, nanoseconds)
+/// have been read, so that the tf published for its stamp, which a recording may hold after
+/// the scan, is in the buffer when the scan is placed.
+const TF_HOLD_NS: i128 = 2_000_000_000;
+/// Scans held back at most (whatever their receive times say).
+const MAX_HELD_SCANS: usize = 400;
+/// Readings held back at most, over the held scans (8 bytes each).
+const MAX_HELD_READINGS: usize = 4_000_000;
 
 /// What to read from a ROS recording.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -40,6 +52,11 @@ pub struct RosScanOptions {
     pub skip_bad: bool,
     /// Size limits.
     pub limits: ReadLimits,
+    /// The robot's frame in tf: each scan's `robot_from_laser` is the transform from it to the
+    /// scan's `header.frame_id`, and odometry from tf is `odom → ` it. `None`: `base_link`, or
+    /// `base_footprint` where tf has no `base_link` (the first of them tf names, kept for the
+    /// run). Without tf in the recording the laser is at the robot's origin.
+    pub base_frame: Option<String>,
 }
 
 /// What a [`RosScanReader`] has read so far.
@@ -72,6 +89,16 @@ pub struct RosStats {
     pub odometry_bad_messages: u64,
     /// What the container reader read past (a file cut off, and where it ends).
     pub warnings: Vec<String>,
+    /// What tf gave the scans; `None` for a recording without `/tf` or `/tf_static`.
+    pub tf: Option<TfStats>,
+}
+
+/// A scan read, waiting for the tf recorded after it.
+struct Held {
+    scan: RangeScan,
+    frame_id: String,
+    stamp_ns: i128,
+    log_time_ns: i128,
 }
 
 /// Streams the scans of one `LaserScan` topic in file order.
@@ -84,6 +111,13 @@ pub struct RosStats {
 /// Odometry is read by a second reader over the same file, moving forward in step with the
 /// scans: memory stays bounded and each scan's pose is interpolated between the odometry
 /// messages around its `header.stamp` (x and y linearly, yaw along the shorter arc).
+///
+/// tf (`/tf` and `/tf_static`, [`super::tf`]) is read by the same pass as the scans. Since a
+/// recording may hold the transforms for a scan's stamp after the scan, each scan is held back
+/// until the messages recorded 2 s after it are read (at most 400 scans or 4 million readings):
+/// its `robot_from_laser` is then the transform from the robot's frame
+/// ([`RosScanOptions::base_frame`]) to its `header.frame_id`, and, where no odometry topic is
+/// read, its odometry is `odom →` the robot's frame.
 pub struct RosScanReader {
     source: Box<dyn MessageSource>,
     path: PathBuf,
@@ -94,6 +128,12 @@ pub struct RosScanReader {
     witness: bool,
     stats: RosStats,
     skip_bad: bool,
+    tf: TfTrack,
+    held: VecDeque<Held>,
+    held_readings: usize,
+    /// The latest receive time read, nanoseconds.
+    latest_log_time_ns: i128,
+    ended: bool,
 }
 
 impl RosScanReader {
@@ -129,7 +169,16 @@ impl RosScanReader {
             )?,
         };
         let mut witness_dropped = None;
-        let odom = if options.odometry {
+        let has = |is: fn(&Connection) -> bool| {
+            topics.iter().any(|t| is(&t.connection) && t.messages > 0)
+        };
+        let has_tf = has(|c| tf_topic(c) == Some(false));
+        // --odometry without an odometry topic: tf's odom → base, where the recording has /tf.
+        let odometry_from_tf = options.odometry
+            && options.odom_topic.is_none()
+            && !has(Connection::is_odometry)
+            && has_tf;
+        let odom = if options.odometry && !odometry_from_tf {
             let odom_topic = match &options.odom_topic {
                 Some(t) => t.clone(),
                 None => only_topic(
@@ -142,7 +191,7 @@ impl RosScanReader {
             };
             let source = open_for(std::slice::from_ref(&odom_topic))?;
             Some(OdomTrack::new(source, path, odom_topic, options.skip_bad))
-        } else if options.witness_odometry {
+        } else if options.witness_odometry && !options.odometry {
             // Only where the topic is named or the survey (run for the laser topic anyway, so
             // `topics` is empty without it) found odometry; several odometry topics, or one
             // that does not open, are said why, not an error.
@@ -176,8 +225,16 @@ impl RosScanReader {
         } else {
             None
         };
+        // Without an odometry topic read, tf's odom → base gives the odometry.
+        let tf_odometry = match (&odom, options.odometry, options.witness_odometry) {
+            (Some(_), _, _) => None,
+            (None, true, _) => Some(TfOdometry::Prior),
+            (None, false, true) => Some(TfOdometry::Witness),
+            (None, false, false) => None,
+        };
+        let read_topics = [topic.clone(), TF_TOPIC.into(), TF_STATIC_TOPIC.into()];
         Ok(RosScanReader {
-            source: open_for(std::slice::from_ref(&topic))?,
+            source: open_for(&read_topics)?,
             path: path.to_path_buf(),
             topic,
             index: 0,
@@ -188,7 +245,22 @@ impl RosScanReader {
                 ..RosStats::default()
             },
             skip_bad: options.skip_bad,
+            tf: TfTrack::new(options.base_frame.as_deref(), tf_odometry),
+            held: VecDeque::new(),
+            held_readings: 0,
+            latest_log_time_ns: i128::MIN,
+            ended: false,
         })
+    }
+
+    /// Whether the recording has tf: a tf message read, or a tf topic declared.
+    fn carries_tf(&self) -> bool {
+        self.tf.any_read()
+            || self
+                .source
+                .connections()
+                .iter()
+                .any(|c| tf_topic(c).is_some())
     }
 
     /// The laser topic read.
@@ -210,6 +282,7 @@ impl RosScanReader {
         {
             stats.bad_message_errors.push(e.clone());
         }
+        stats.tf = self.carries_tf().then(|| self.tf.stats());
         if let Some(odom) = &self.odom {
             stats.odometry_messages = odom.read;
             // Odometry only witnessing: its bad messages are its own (a run that asked for no
@@ -229,76 +302,136 @@ impl RosScanReader {
 
     /// The next scan, `Ok(None)` at the end.
     pub fn next_scan(&mut self) -> Result<Option<RangeScan>, RosError> {
-        while self.source.advance()? {
-            self.stats.messages += 1;
-            let m = self.source.current();
-            let c = &self.source.connections()[m.connection];
-            if c.topic != self.topic {
-                *self.stats.other_topics.entry(c.topic.clone()).or_insert(0) += 1;
+        loop {
+            if self.front_ready()
+                && let Some(held) = self.held.pop_front()
+            {
+                self.held_readings -= held.scan.ranges_m.len();
+                return self.place(held).map(Some);
+            }
+            if self.ended {
+                if self.stats.scans == 0 && self.stats.bad_messages == 0 {
+                    return Err(self.no_scans());
+                }
+                return Ok(None);
+            }
+            if !self.source.advance()? {
+                self.ended = true;
                 continue;
             }
-            self.index += 1;
-            if !c.is_laser_scan() {
-                return Err(RosError::Topics {
-                    path: self.path.clone(),
-                    problem: format!(
-                        "topic {} is of type {}, not sensor_msgs/LaserScan",
-                        self.topic, c.type_name
-                    ),
+            self.read_message()?;
+        }
+    }
+
+    /// Whether the first held scan can be placed: the messages recorded long enough after it
+    /// are read, too many scans are held, or the file is read.
+    fn front_ready(&self) -> bool {
+        let Some(front) = self.held.front() else {
+            return false;
+        };
+        self.ended
+            || self.held.len() > MAX_HELD_SCANS
+            || self.held_readings > MAX_HELD_READINGS
+            || self.latest_log_time_ns.saturating_sub(front.log_time_ns) >= TF_HOLD_NS
+    }
+
+    /// Reads the current message: tf into the buffer, a scan of the topic into the held ones.
+    fn read_message(&mut self) -> Result<(), RosError> {
+        self.stats.messages += 1;
+        let m = self.source.current();
+        let c = &self.source.connections()[m.connection];
+        self.latest_log_time_ns = self.latest_log_time_ns.max(m.log_time_ns);
+        if let Some(is_static) = tf_topic(c) {
+            self.tf.read(&self.path, c, m.data, m.place, is_static);
+            return Ok(());
+        }
+        if c.topic != self.topic {
+            *self.stats.other_topics.entry(c.topic.clone()).or_insert(0) += 1;
+            return Ok(());
+        }
+        self.index += 1;
+        if !c.is_laser_scan() {
+            return Err(RosError::Topics {
+                path: self.path.clone(),
+                problem: format!(
+                    "topic {} is of type {}, not sensor_msgs/LaserScan",
+                    self.topic, c.type_name
+                ),
+            });
+        }
+        let decoded = match c.encoding.flavor() {
+            Some(f) => LaserScanMsg::decode(m.data, f),
+            None => Err(MessageProblem::Encoding(format!("{:?}", c.encoding))),
+        };
+        let (place, log_time_ns) = (m.place, m.log_time_ns);
+        match decoded {
+            Ok(msg) => {
+                let scan = msg.to_range_scan();
+                self.held_readings += scan.ranges_m.len();
+                self.held.push_back(Held {
+                    scan,
+                    frame_id: msg.frame_id,
+                    stamp_ns: msg.stamp.nanos(),
+                    log_time_ns,
                 });
+                Ok(())
             }
-            let decoded = match c.encoding.flavor() {
-                Some(f) => LaserScanMsg::decode(m.data, f),
-                None => Err(MessageProblem::Encoding(format!("{:?}", c.encoding))),
-            };
-            let place = m.place;
-            let msg = match decoded {
-                Ok(msg) => msg,
-                Err(problem) => {
-                    let e = RosError::Message {
-                        path: self.path.clone(),
-                        topic: self.topic.clone(),
-                        index: self.index,
-                        at: place.to_string(),
-                        problem,
-                    };
-                    self.bad(e)?;
-                    continue;
-                }
-            };
-            let mut scan = msg.to_range_scan();
-            let odometry = self.odom.as_mut().map(|odom| odom.at(msg.stamp.nanos()));
-            match odometry {
-                None => {}
-                // Witnessing: none outside the odometry's span, nor across a gap in it (the
-                // interpolation over a gap would read a straight line the robot did not take).
-                Some(Ok((pose, outside, bracket_ns))) if self.witness => {
-                    scan.odom_from_robot =
-                        Some(pose).filter(|_| !outside && bracket_ns <= WITNESS_MAX_BRACKET_NS);
-                }
-                Some(Ok((pose, outside, _))) => {
-                    scan.odom_from_robot = Some(pose);
-                    self.stats.scans_outside_odometry += u64::from(outside);
-                }
-                Some(Err(e)) if self.witness => {
-                    if let Some(odom) = self.odom.take() {
-                        self.stats.odometry_messages = odom.read;
-                        self.stats.odometry_bad_messages = odom.bad;
-                    }
-                    self.stats.odometry_dropped = Some(e.to_string());
-                }
-                Some(Err(e)) => return Err(e),
+            Err(problem) => {
+                let e = RosError::Message {
+                    path: self.path.clone(),
+                    topic: self.topic.clone(),
+                    index: self.index,
+                    at: place.to_string(),
+                    problem,
+                };
+                self.bad(e)
             }
-            let valid = scan.valid_count() as u64;
-            self.stats.valid_readings += valid;
-            self.stats.no_return_readings += scan.ranges_m.len() as u64 - valid;
-            self.stats.scans += 1;
-            return Ok(Some(scan));
         }
-        if self.stats.scans == 0 && self.stats.bad_messages == 0 {
-            return Err(self.no_scans());
+    }
+
+    /// A held scan with its mounting and odometry.
+    fn place(&mut self, held: Held) -> Result<RangeScan, RosError> {
+        let Held {
+            mut scan,
+            frame_id,
+            stamp_ns,
+            ..
+        } = held;
+        let carries_tf = self.carries_tf();
+        let (robot_frame, robot_from_laser) = self.tf.mount(&frame_id, stamp_ns, carries_tf);
+        scan.robot_from_laser = robot_from_laser;
+        let odometry = self.odom.as_mut().map(|odom| odom.at(stamp_ns));
+        match odometry {
+            None if carries_tf => {
+                scan.odom_from_robot =
+                    self.tf
+                        .odometry(&robot_frame, stamp_ns, WITNESS_MAX_BRACKET_NS);
+            }
+            None => {}
+            // Witnessing: none outside the odometry's span, nor across a gap in it (the
+            // interpolation over a gap would read a straight line the robot did not take).
+            Some(Ok((pose, outside, bracket_ns))) if self.witness => {
+                scan.odom_from_robot =
+                    Some(pose).filter(|_| !outside && bracket_ns <= WITNESS_MAX_BRACKET_NS);
+            }
+            Some(Ok((pose, outside, _))) => {
+                scan.odom_from_robot = Some(pose);
+                self.stats.scans_outside_odometry += u64::from(outside);
+            }
+            Some(Err(e)) if self.witness => {
+                if let Some(odom) = self.odom.take() {
+                    self.stats.odometry_messages = odom.read;
+                    self.stats.odometry_bad_messages = odom.bad;
+                }
+                self.stats.odometry_dropped = Some(e.to_string());
+            }
+            Some(Err(e)) => return Err(e),
         }
-        Ok(None)
+        let valid = scan.valid_count() as u64;
+        self.stats.valid_readings += valid;
+        self.stats.no_return_readings += scan.ranges_m.len() as u64 - valid;
+        self.stats.scans += 1;
+        Ok(scan)
     }
 
     fn bad(&mut self, e: RosError) -> Result<(), RosError> {

@@ -62,12 +62,28 @@ impl Connection {
     pub fn is_odometry(&self) -> bool {
         self.plain_type() == ODOMETRY
     }
+
+    /// True for the types polymap decodes (laser scans, odometry, tf): the readers keep the
+    /// bytes of these messages only.
+    pub fn is_decoded(&self) -> bool {
+        self.is_laser_scan() || self.is_odometry() || self.is_tf()
+    }
+
+    /// True for `tf2_msgs/TFMessage` (ROS 1 and 2) and ROS 1's older `tf/tfMessage`.
+    pub fn is_tf(&self) -> bool {
+        let t = self.plain_type();
+        t == TF_MESSAGE || t == TF_MESSAGE_ROS1_OLD
+    }
 }
 
 /// The laser scan type, without `/msg/`.
 pub const LASER_SCAN: &str = "sensor_msgs/LaserScan";
 /// The odometry type, without `/msg/`.
 pub const ODOMETRY: &str = "nav_msgs/Odometry";
+/// The tf type, without `/msg/`.
+pub const TF_MESSAGE: &str = "tf2_msgs/TFMessage";
+/// ROS 1's tf type before tf2 (the same layout).
+pub const TF_MESSAGE_ROS1_OLD: &str = "tf/tfMessage";
 
 /// One message, borrowed from the reader's buffer until the next call.
 #[derive(Debug)]

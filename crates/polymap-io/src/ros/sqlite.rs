@@ -19,7 +19,8 @@ type Row = (i64, usize, i64, Vec<u8>);
 
 /// A reader of one rosbag2 `.db3` file, in message id (recording) order.
 ///
-/// Only messages of `LaserScan` and `Odometry` topics have their data fetched; others are
+/// Only messages of `LaserScan`, `Odometry` and `TFMessage` topics
+/// ([`Connection::is_decoded`](super::Connection::is_decoded)) have their data fetched; others are
 /// counted with empty [`RawMessage::data`].
 pub struct SqliteReader {
     db: rusqlite::Connection,
@@ -71,7 +72,7 @@ impl SqliteReader {
         }
         let decodable: Vec<String> = topic_index
             .iter()
-            .filter(|&(_, &i)| connections[i].is_laser_scan() || connections[i].is_odometry())
+            .filter(|&(_, &i)| connections[i].is_decoded())
             .map(|(id, _)| id.to_string())
             .collect();
         let data_expr = if decodable.is_empty() {

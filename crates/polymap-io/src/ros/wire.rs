@@ -183,6 +183,29 @@ impl<'a> Decoder<'a> {
         }
     }
 
+    /// A count of structures of at least `min_element_bytes` each, all of which must fit in
+    /// what is left (no alignment is assumed: a structure aligns its own fields).
+    pub(crate) fn count_min(
+        &mut self,
+        field: &'static str,
+        min_element_bytes: usize,
+    ) -> Result<usize, MessageProblem> {
+        let n = self.u32(field)?;
+        let fits = usize::try_from(n)
+            .ok()
+            .and_then(|n| n.checked_mul(min_element_bytes))
+            .is_some_and(|bytes| bytes <= self.remaining());
+        if fits {
+            Ok(n as usize)
+        } else {
+            Err(MessageProblem::CountTooLarge {
+                field,
+                count: n,
+                remaining: self.remaining(),
+            })
+        }
+    }
+
     /// A counted sequence of `float32`.
     pub(crate) fn f32_seq(&mut self, field: &'static str) -> Result<Vec<f32>, MessageProblem> {
         let n = self.count(field, 4)?;

@@ -4,4 +4,5 @@ mod real_logs;
 mod ros_damaged;
 mod ros_files;
 mod ros_rosbags;
+mod ros_tf;
 mod ros_written;

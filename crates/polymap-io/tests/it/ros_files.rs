@@ -173,3 +173,42 @@ fn the_kind_is_told_by_content_not_by_the_extension() {
         LogKind::Ros(RosFormat::Bag1)
     );
 }
+
+/// The `tf2_msgs/msg/TFMessage`s of the conformance recordings, written by ROS 2, decode from
+/// both storages (the readers keep the bytes of tf messages): `test_frame` → `child_frame` at
+/// (1, 2, 3), identity rotation. Their topic is not `/tf`, so mapping reads no tf from them.
+#[test]
+fn the_conformance_tf_messages_decode_in_both_storages() {
+    use polymap_io::ros::TfMessage;
+    for (name, format) in [
+        ("rosbag2-conformance.mcap", RosFormat::Mcap),
+        ("rosbag2-conformance.db3", RosFormat::Sqlite),
+    ] {
+        let Some(path) = ros_file(name) else {
+            return;
+        };
+        let mut source = open_source(&path, format, ReadLimits::default(), false).unwrap();
+        let mut transforms = Vec::new();
+        while source.advance().unwrap() {
+            let m = source.current();
+            let c = &source.connections()[m.connection];
+            if c.is_tf() {
+                assert_eq!(c.topic, "/test/tf2_msgs/tf_message");
+                let msg = TfMessage::decode(m.data, c.encoding.flavor().unwrap()).unwrap();
+                transforms.extend(msg.transforms);
+            }
+        }
+        assert_eq!(transforms.len(), 2, "{name}");
+        for t in &transforms {
+            assert_eq!(
+                (t.parent_frame.as_str(), t.child_frame.as_str()),
+                ("test_frame", "child_frame")
+            );
+            assert_eq!(t.translation_m, [1.0, 2.0, 3.0]);
+            assert_eq!(t.rotation, [0.0, 0.0, 0.0, 1.0]);
+        }
+        let mut log = LogSource::open(&path, &LogOptions::default()).unwrap();
+        while log.next_scan().unwrap().is_some() {}
+        assert_eq!(log.stats().tf, None, "{name}");
+    }
+}

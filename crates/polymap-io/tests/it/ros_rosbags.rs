@@ -1,6 +1,6 @@
 //! Cross-checks with an independent implementation, the Python `rosbags` package
 //! (`scripts/rosbags-crosscheck.py`): polymap reads what rosbags writes, and rosbags reads what
-//! polymap writes, to the bit.
+//! polymap writes, to the bit: laser scans and tf (`tf2_msgs/TFMessage`, ROS 1 and CDR).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -8,7 +8,9 @@ use std::process::Command;
 use polymap_io::log::{LogOptions, LogSource};
 use polymap_io::ros::mcap_file::McapCompression;
 use polymap_io::ros::ros1::BagCompression;
-use polymap_io::ros::{ReadLimits, RosFormat, open_source, sniff, write_bag, write_mcap};
+use polymap_io::ros::{
+    ReadLimits, RosFormat, TfMessage, open_source, sniff, write_bag, write_mcap,
+};
 
 fn script() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../scripts/rosbags-crosscheck.py")
@@ -45,14 +47,37 @@ fn python(args: &[&str]) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
-/// polymap's own view of a file's LaserScans, in the script's `read` format.
+/// polymap's own view of a file's LaserScans and tf, in the script's `read` format.
 fn polymap_lines(path: &Path) -> String {
     let format = sniff(path).unwrap().unwrap();
     let mut source = open_source(path, format, ReadLimits::default(), false).unwrap();
     let mut out = String::new();
+    let mut tf_lines = String::new();
     while source.advance().unwrap() {
         let m = source.current();
         let c = &source.connections()[m.connection];
+        if c.is_tf() {
+            let msg = TfMessage::decode(m.data, c.encoding.flavor().unwrap())
+                .unwrap_or_else(|e| panic!("{}: {e}: {:?} {:?}", path.display(), c, m.data));
+            for t in msg.transforms {
+                let values: Vec<String> = t
+                    .translation_m
+                    .iter()
+                    .chain(&t.rotation)
+                    .map(|v| format!("{:016x}", v.to_bits()))
+                    .collect();
+                tf_lines.push_str(&format!(
+                    "tf {} {} {} {} {} {}\n",
+                    c.topic,
+                    t.stamp.sec,
+                    t.stamp.nanosec,
+                    t.parent_frame,
+                    t.child_frame,
+                    values.join(" ")
+                ));
+            }
+            continue;
+        }
         if !c.is_laser_scan() {
             continue;
         }
@@ -75,7 +100,7 @@ fn polymap_lines(path: &Path) -> String {
             ranges.join(",")
         ));
     }
-    out
+    out + &tf_lines
 }
 
 #[test]
@@ -136,7 +161,23 @@ fn polymap_reads_what_rosbags_writes() {
             assert!((p.x_m - 3.0 * f).abs() < 1e-6, "{name} {k}: {p:?}");
             assert!((p.y_m - 6.0 * f).abs() < 1e-6, "{name} {k}: {p:?}");
             assert!((p.theta_rad - 0.9 * f).abs() < 1e-6, "{name} {k}: {p:?}");
+            // The laser's mounting from /tf_static (`/base_link` → `laser`), recorded after
+            // the first scan.
+            let m = s.robot_from_laser;
+            assert!(
+                (m.x_m - 0.2).abs() < 1e-12
+                    && (m.y_m - 0.1).abs() < 1e-12
+                    && (m.theta_rad - 0.3).abs() < 1e-12,
+                "{name} {k}: {m:?}"
+            );
         }
+        let tf = log.stats().tf.expect("the recording has tf");
+        assert_eq!(tf.base_frame.as_deref(), Some("base_link"), "{name}");
+        assert_eq!(
+            (tf.static_messages, tf.messages, tf.scans_mounted),
+            (1, 2, 3),
+            "{name}"
+        );
     }
 }
 
@@ -161,7 +202,12 @@ fn rosbags_reads_what_polymap_writes() {
     .unwrap();
     for path in [bag, mcap_dir] {
         let theirs = python(&["read", path.to_str().unwrap()]);
-        assert_eq!(theirs.lines().count(), scans.len());
+        // A scan and odom → base_link per scan, and the mounting once.
+        assert_eq!(theirs.lines().count(), 2 * scans.len() + 1);
+        assert!(
+            theirs.contains(" base_link laser 3fc999999999999a 0000000000000000 "),
+            "{theirs}"
+        );
         assert_eq!(polymap_lines(&path), theirs, "{}", path.display());
     }
 }
@@ -182,7 +228,8 @@ fn polymap_sim_like_scans() -> Vec<polymap::scan::RangeScan> {
                 angle_min_rad: -135f64.to_radians(),
                 angle_increment_rad: 1f64.to_radians(),
                 max_range_m: 30.0,
-                robot_from_laser: Pose2::IDENTITY,
+                // Off the robot's origin: written as tf.
+                robot_from_laser: Pose2::new(0.2, 0.0, 0.1),
                 odom_from_robot: Some(Pose2::new(k as f64, 0.0, 0.0)),
             };
             polymap_io::ros::float32_scan(&s)
@@ -190,25 +237,31 @@ fn polymap_sim_like_scans() -> Vec<polymap::scan::RangeScan> {
         .collect()
 }
 
-/// A minimal rosbag2 `metadata.yaml` for one MCAP file with /scan and /odom.
+/// A minimal rosbag2 `metadata.yaml` for one MCAP file with /scan, /odom, /tf and /tf_static.
 fn rosbag2_metadata(file: &str, scans: usize) -> String {
-    let topic = |name: &str, ty: &str| {
+    let topic = |name: &str, ty: &str, count: usize| {
         format!(
-            "  - message_count: {scans}\n    topic_metadata:\n      name: {name}\n      \
+            "  - message_count: {count}\n    topic_metadata:\n      name: {name}\n      \
              offered_qos_profiles: ''\n      serialization_format: cdr\n      type: {ty}\n      \
              type_description_hash: ''\n"
         )
     };
+    let tf = "tf2_msgs/msg/TFMessage";
     format!(
         "rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n  \
          duration:\n    nanoseconds: 1000000000\n  starting_time:\n    nanoseconds_since_epoch: 1000000000000\n  \
-         message_count: {}\n  topics_with_message_count:\n{}{}  compression_format: ''\n  \
+         message_count: {}\n  topics_with_message_count:\n{}  compression_format: ''\n  \
          compression_mode: ''\n  relative_file_paths:\n  - {file}\n  files:\n  - path: {file}\n    \
          starting_time:\n      nanoseconds_since_epoch: 1000000000000\n    duration:\n      \
          nanoseconds: 1000000000\n    message_count: {}\n  custom_data: {{}}\n  ros_distro: humble\n",
-        2 * scans,
-        topic("/scan", "sensor_msgs/msg/LaserScan"),
-        topic("/odom", "nav_msgs/msg/Odometry"),
-        2 * scans
+        3 * scans + 1,
+        [
+            topic("/scan", "sensor_msgs/msg/LaserScan", scans),
+            topic("/odom", "nav_msgs/msg/Odometry", scans),
+            topic("/tf", tf, scans),
+            topic("/tf_static", tf, 1),
+        ]
+        .concat(),
+        3 * scans + 1
     )
 }

@@ -89,8 +89,8 @@ impl BagWriter {
         Ok(w)
     }
 
-    /// Declares a topic of a type polymap knows (`sensor_msgs/LaserScan` or
-    /// `nav_msgs/Odometry`); returns its connection id.
+    /// Declares a topic of a type polymap knows (`sensor_msgs/LaserScan`, `nav_msgs/Odometry`
+    /// or `tf2_msgs/TFMessage`); returns its connection id.
     pub fn add_connection(&mut self, topic: &str, type_name: &str) -> u32 {
         self.conns.push(Conn {
             topic: topic.to_owned(),
