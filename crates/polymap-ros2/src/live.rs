@@ -87,12 +87,23 @@ impl ScanQueue {
 
     /// Queues a scan, dropping the oldest waiting one when full. Returns false once closed.
     pub fn push(&self, scan: RangeScan, arrived: Instant) -> bool {
+        self.push_bounded(scan, arrived, self.capacity)
+    }
+
+    /// Queues a scan that was held back (waiting for tf) and is let go with others at once:
+    /// the queue may then hold up to `extra` more than its capacity, so that a run's first
+    /// scans are not dropped for the wait.
+    pub fn push_held(&self, scan: RangeScan, arrived: Instant, extra: usize) -> bool {
+        self.push_bounded(scan, arrived, self.capacity + extra)
+    }
+
+    fn push_bounded(&self, scan: RangeScan, arrived: Instant, capacity: usize) -> bool {
         let mut s = self.lock();
         if s.closed {
             return false;
         }
         s.received.scan_messages += 1;
-        if s.queue.len() >= self.capacity {
+        if s.queue.len() >= capacity {
             s.queue.pop_front();
             s.received.dropped += 1;
         }
@@ -351,6 +362,22 @@ mod tests {
             stats.warnings
         );
         assert_eq!((stats.valid_readings, stats.no_return_readings), (4, 2));
+    }
+
+    #[test]
+    fn scans_held_back_may_exceed_the_capacity_by_their_allowance() {
+        let q = ScanQueue::new(2, false);
+        for t in 0..5 {
+            q.push_held(scan(f64::from(t)), Instant::now(), 3);
+        }
+        q.push_held(scan(5.0), Instant::now(), 3);
+        assert_eq!(q.received().dropped, 1);
+        q.push(scan(6.0), Instant::now());
+        assert_eq!(
+            q.received().dropped,
+            5,
+            "a plain push keeps the plain bound"
+        );
     }
 
     #[test]

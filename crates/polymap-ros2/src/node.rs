@@ -12,7 +12,9 @@ use polymap::geometry::{Pose2, Segment, Vec2};
 use polymap::mapper::{Mapper, Update};
 use polymap::scan::Stamp;
 use polymap_export::pgm::{GridParams, OccupancyGrid as Grid};
-use polymap_io::ros::LaserScanMsg;
+use polymap_io::ros::tf::{TfBuffer, TfLimits, frame_name};
+use polymap_io::ros::{BASE_FOOTPRINT, BASE_LINK, ODOM_FRAME};
+use polymap_io::ros::{LaserScanMsg, RosTime, TransformStampedMsg};
 use ros2_client::dds::rustdds::DomainParticipant;
 use ros2_client::dds::rustdds::mio1::{Events, Interest, Poll, Token};
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
@@ -113,6 +115,14 @@ fn reliable_qos(depth: usize) -> QosProfile {
         .history(History::KeepLast { depth })
 }
 
+/// What tf2's listener subscribes with: reliable, the last 100.
+fn tf_qos(durability: Durability) -> QosProfile {
+    QosProfile::subscription_default()
+        .reliability_reliable(WhenFull::DEFAULT)
+        .durability(durability)
+        .history(History::KeepLast { depth: 100 })
+}
+
 /// Reliable and transient local, the last one kept for late subscribers (a latched topic).
 fn latched_qos() -> QosProfile {
     QosProfile::publisher_default()
@@ -169,6 +179,8 @@ struct Frames {
     scan: Option<String>,
     /// The odometry's `header.frame_id` and `child_frame_id`.
     odom: Option<(String, String)>,
+    /// The robot's frame tf placed the scans in.
+    base: Option<String>,
 }
 
 /// The ROS 2 node: subscriptions on a thread of their own, publishers driven by the run.
@@ -228,6 +240,11 @@ impl Ros2Node {
             Some(t) => Some(subscription::<Odometry>(&mut node, t, sensor_qos(50))?),
             None => None,
         };
+        // As tf2's listener subscribes: /tf reliable and volatile, /tf_static reliable and
+        // transient local (a late node still gets the mounting).
+        let tf_sub = subscription::<TfMessage>(&mut node, "/tf", tf_qos(Durability::Volatile))?;
+        let tf_static =
+            subscription::<TfMessage>(&mut node, "/tf_static", tf_qos(Durability::TransientLocal))?;
         let pose = publisher(&mut node, "pose", reliable_qos(10))?;
         let tf = publisher(&mut node, "/tf", reliable_qos(100))?;
         let markers = publisher(&mut node, "polymap/segments", latched_qos())?;
@@ -243,6 +260,13 @@ impl Ros2Node {
                 checked_writers: None,
                 scans,
                 odometry,
+                tf: tf_sub,
+                tf_static,
+                buffer: TfBuffer::new(TfLimits::default()),
+                base: None,
+                base_option: options.base_frame.clone(),
+                mounts: Default::default(),
+                waiting: Default::default(),
                 queue: Arc::clone(&queue),
                 frames: Arc::clone(&frames),
                 stop: Arc::clone(&stop_receiving),
@@ -313,6 +337,7 @@ impl Ros2Node {
             .base_frame
             .clone()
             .or_else(|| frames.odom.as_ref().map(|(_, child)| child.clone()))
+            .or(frames.base.clone())
             .or(frames.scan.clone())
             .unwrap_or_else(|| "base_link".into());
         let map_from_base = update.map_from_robot;
@@ -477,6 +502,17 @@ struct Receiving {
     checked_writers: Option<Instant>,
     scans: Subscription<LaserScan>,
     odometry: Option<Subscription<Odometry>>,
+    tf: Subscription<TfMessage>,
+    tf_static: Subscription<TfMessage>,
+    /// Every transform received (bounded by its limits).
+    buffer: TfBuffer,
+    /// The robot's frame once found: `base_option`, else `base_link`, else `base_footprint`.
+    base: Option<String>,
+    base_option: Option<String>,
+    /// Per scan frame, once decided: its last mounting from tf, or `None` (taken as the robot).
+    mounts: std::collections::HashMap<String, Option<Pose2>>,
+    /// Scans whose frame is not decided yet, oldest first.
+    waiting: std::collections::VecDeque<(polymap::scan::RangeScan, String, RosTime, Instant)>,
     queue: Arc<ScanQueue>,
     frames: Arc<Mutex<Frames>>,
     stop: Arc<AtomicBool>,
@@ -485,6 +521,8 @@ struct Receiving {
 
 const SCANS: Token = Token(0);
 const ODOMETRY: Token = Token(1);
+const TF: Token = Token(2);
+const TF_STATIC: Token = Token(3);
 /// How often the receiving thread looks at its stop flag.
 const RECEIVE_POLL: Duration = Duration::from_millis(50);
 
@@ -503,7 +541,15 @@ impl Receiving {
                 poll.registry()
                     .register(o, ODOMETRY, Interest::READABLE)
                     .is_ok()
-            });
+            })
+            && poll
+                .registry()
+                .register(&mut self.tf, TF, Interest::READABLE)
+                .is_ok()
+            && poll
+                .registry()
+                .register(&mut self.tf_static, TF_STATIC, Interest::READABLE)
+                .is_ok();
         if !registered {
             self.queue
                 .warn_once("cannot poll the subscriptions: no scan is received".into());
@@ -513,8 +559,10 @@ impl Receiving {
         while !self.stop.load(Ordering::SeqCst) {
             // Edge-triggered: after any event (or the timeout) take everything there is.
             let _ = poll.poll(&mut events, Some(RECEIVE_POLL));
+            self.take_tf();
             self.take_odometry();
             self.take_scans();
+            self.release_waiting();
             if self
                 .checked_writers
                 .is_none_or(|t| t.elapsed() >= WRITER_CHECK)
@@ -543,6 +591,185 @@ impl Receiving {
                     eprintln!("polymap: warning: {warning}");
                 }
             }
+        }
+    }
+
+    fn take_tf(&mut self) {
+        for is_static in [true, false] {
+            loop {
+                let sub = if is_static { &self.tf_static } else { &self.tf };
+                match sub.take() {
+                    Ok(Some((msg, _))) => self.insert_tf(&msg, is_static),
+                    Ok(None) => break,
+                    Err(e) => {
+                        self.queue
+                            .warn_once(format!("a tf message could not be read: {e:?}"));
+                        break;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Takes a tf message into the buffer; without an odometry topic, `odom → base` is the
+    /// odometry.
+    fn insert_tf(&mut self, msg: &TfMessage, is_static: bool) {
+        for t in &msg.transforms {
+            let m = TransformStampedMsg {
+                stamp: RosTime {
+                    sec: i64::from(t.header.stamp.sec),
+                    nanosec: t.header.stamp.nanosec,
+                },
+                parent_frame: t.header.frame_id.clone(),
+                child_frame: t.child_frame_id.clone(),
+                translation_m: [
+                    t.transform.translation.x,
+                    t.transform.translation.y,
+                    t.transform.translation.z,
+                ],
+                rotation: [
+                    t.transform.rotation.x,
+                    t.transform.rotation.y,
+                    t.transform.rotation.z,
+                    t.transform.rotation.w,
+                ],
+            };
+            if let Err(e) = self.buffer.insert(&m, is_static) {
+                if self
+                    .queue
+                    .warn_once(format!("a transform was refused: {e}"))
+                {
+                    eprintln!("polymap: warning: a transform was refused: {e}");
+                }
+                continue;
+            }
+            self.find_base();
+            let odom_edge = self.odometry.is_none()
+                && !is_static
+                && frame_name(&m.parent_frame) == ODOM_FRAME
+                && self.base.as_deref() == Some(frame_name(&m.child_frame));
+            if odom_edge {
+                let pose = crate::outputs::plane_pose(&crate::msgs::Pose {
+                    position: crate::msgs::Point {
+                        x: m.translation_m[0],
+                        y: m.translation_m[1],
+                        z: m.translation_m[2],
+                    },
+                    orientation: t.transform.rotation,
+                });
+                self.queue.odometry(m.stamp.to_stamp().seconds, pose);
+                let mut f = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+                f.odom = Some((ODOM_FRAME.to_owned(), frame_name(&m.child_frame).to_owned()));
+            }
+        }
+    }
+
+    /// Fixes the robot's frame once tf names it.
+    fn find_base(&mut self) {
+        if self.base.is_some() {
+            return;
+        }
+        let found = match &self.base_option {
+            Some(b) => self.buffer.has_frame(b).then(|| frame_name(b).to_owned()),
+            None => [BASE_LINK, BASE_FOOTPRINT]
+                .into_iter()
+                .find(|b| self.buffer.has_frame(b))
+                .map(str::to_owned),
+        };
+        if let Some(b) = found {
+            self.frames.lock().unwrap_or_else(|e| e.into_inner()).base = Some(b.clone());
+            self.base = Some(b);
+        }
+    }
+
+    /// Where tf puts the scan's frame on the robot at the scan's time, or why it cannot.
+    fn lookup_mount(&self, frame: &str, stamp: &RosTime) -> Result<Pose2, String> {
+        match &self.base {
+            Some(base) => self
+                .buffer
+                .lookup(base, frame, stamp.nanos())
+                .map(|l| l.pose)
+                .map_err(|e| e.to_string()),
+            None => Err(format!(
+                "tf names no robot frame ({})",
+                self.base_option
+                    .clone()
+                    .unwrap_or_else(|| format!("{BASE_LINK} or {BASE_FOOTPRINT}"))
+            )),
+        }
+    }
+
+    /// Hands a scan to the queue with its mounting. Whether tf places a scan frame is decided
+    /// once, at its first scan, so that a run never switches between two robot frames: a scan
+    /// tf cannot place yet waits (up to [`TF_WAIT`]) for the transforms, which may arrive just
+    /// after it; past that, the frame is taken as the robot's for the whole run (warned). A
+    /// placed frame whose lookup fails later keeps its last mounting.
+    fn place(
+        &mut self,
+        mut scan: polymap::scan::RangeScan,
+        frame: String,
+        stamp: RosTime,
+        arrived: Instant,
+        held: bool,
+    ) {
+        // Scans let go together after waiting for tf may go beyond the queue's bound (by as
+        // many as may wait), so that the run's first scans are not dropped for the wait.
+        let push = |q: &ScanQueue, scan, arrived| {
+            if held {
+                q.push_held(scan, arrived, MAX_WAITING_SCANS)
+            } else {
+                q.push(scan, arrived)
+            }
+        };
+        match self.mounts.get(&frame) {
+            Some(Some(last)) => {
+                let mount = self.lookup_mount(&frame, &stamp).unwrap_or(*last);
+                self.mounts.insert(frame, Some(mount));
+                scan.robot_from_laser = mount;
+                push(&self.queue, scan, arrived);
+            }
+            Some(None) => {
+                push(&self.queue, scan, arrived);
+            }
+            None => {
+                if self.waiting.len() >= MAX_WAITING_SCANS {
+                    self.waiting.pop_front();
+                    self.queue.bad_message(format!(
+                        "{}: a scan waiting for tf was dropped (too many waiting)",
+                        self.topic
+                    ));
+                }
+                self.waiting.push_back((scan, frame, stamp, arrived));
+                self.release_waiting();
+            }
+        }
+    }
+
+    /// Hands over the scans waiting for tf once their frame is decided.
+    fn release_waiting(&mut self) {
+        while let Some((_, frame, stamp, arrived)) = self.waiting.front() {
+            if !self.mounts.contains_key(frame) {
+                match self.lookup_mount(frame, stamp) {
+                    Ok(mount) => {
+                        self.mounts.insert(frame.clone(), Some(mount));
+                    }
+                    Err(problem) if arrived.elapsed() >= TF_WAIT => {
+                        let warning = format!(
+                            "no tf places the scans' frame {frame} on the robot ({problem}): the \
+                             scan frame is taken as the robot's"
+                        );
+                        if self.queue.warn_once(warning.clone()) {
+                            eprintln!("polymap: warning: {warning}");
+                        }
+                        self.mounts.insert(frame.clone(), None);
+                    }
+                    Err(_) => return,
+                }
+            }
+            let Some((scan, frame, stamp, arrived)) = self.waiting.pop_front() else {
+                return;
+            };
+            self.place(scan, frame, stamp, arrived, true);
         }
     }
 
@@ -577,15 +804,19 @@ impl Receiving {
             match self.scans.take() {
                 Ok(Some((msg, _))) => {
                     let arrived = Instant::now();
+                    let stamp = RosTime {
+                        sec: i64::from(msg.header.stamp.sec),
+                        nanosec: msg.header.stamp.nanosec,
+                    };
                     match convert(msg) {
                         Ok((scan, frame)) => {
                             {
                                 let mut f = self.frames.lock().unwrap_or_else(|e| e.into_inner());
                                 if f.scan.is_none() {
-                                    f.scan = Some(frame);
+                                    f.scan = Some(frame_name(&frame).to_owned());
                                 }
                             }
-                            self.queue.push(scan, arrived);
+                            self.place(scan, frame, stamp, arrived, false);
                         }
                         Err(e) => self.queue.bad_message(format!("{}: {e}", self.topic)),
                     }
@@ -602,6 +833,11 @@ impl Receiving {
         }
     }
 }
+
+/// How long a scan frame's first scan waits for tf to place it, at most.
+const TF_WAIT: Duration = Duration::from_millis(500);
+/// Scans held waiting for tf, at most (beyond, the oldest is dropped and counted).
+const MAX_WAITING_SCANS: usize = 400;
 
 /// How often the receiving thread looks at the publishers discovery found.
 const WRITER_CHECK: Duration = Duration::from_secs(1);

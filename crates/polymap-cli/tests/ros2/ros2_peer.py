@@ -167,19 +167,42 @@ def wait_matched(writer, timeout_s):
     return False
 
 
+def tf_of(msg):
+    """A rosbags TFMessage as ours."""
+    out = []
+    for t in msg.transforms:
+        st = t.header.stamp
+        tr, r = t.transform.translation, t.transform.rotation
+        out.append(
+            m.TransformStamped(
+                m.Header(m.Time(st.sec, st.nanosec), t.header.frame_id),
+                t.child_frame_id,
+                m.Transform(m.Vector3(tr.x, tr.y, tr.z), m.Quaternion(r.x, r.y, r.z, r.w)),
+            )
+        )
+    return m.TFMessage(out)
+
+
 def scans_of(recording, scan_topic, odom_topic, max_scans):
-    """(stamp_s, kind, message) in file order: kind is scan or odom."""
+    """(stamp_s, kind, message) in file order: kind is scan, odom, tf or tf_static."""
     from rosbags.highlevel import AnyReader
 
     out = []
     with AnyReader([Path(recording)]) as r:
-        conns = [c for c in r.connections if c.topic in (scan_topic, odom_topic)]
+        topics = (scan_topic, odom_topic, "/tf", "/tf_static")
+        conns = [c for c in r.connections if c.topic in topics]
         scans = 0
+        last = None
         for c, _, raw in r.messages(connections=conns):
             msg = r.deserialize(raw, c.msgtype)
+            if c.topic in ("/tf", "/tf_static"):
+                kind = c.topic[1:]
+                out.append((last if last is not None else -math.inf, kind, tf_of(msg)))
+                continue
             st = msg.header.stamp
             header = m.Header(m.Time(st.sec, st.nanosec), msg.header.frame_id)
             t = st.sec + st.nanosec * 1e-9
+            last = t
             if c.topic == scan_topic:
                 if max_scans is not None and scans >= max_scans:
                     break
@@ -236,7 +259,8 @@ def main():
     ap.add_argument("--rate", type=float, default=1.0, help="times real time")
     ap.add_argument("--scan-topic", default="/scan")
     ap.add_argument("--odom-topic", default="/odom")
-    ap.add_argument("--no-odometry", action="store_true")
+    ap.add_argument("--no-odometry", action="store_true", help="do not play the odometry topic")
+    ap.add_argument("--no-tf", action="store_true", help="do not play /tf and /tf_static")
     ap.add_argument("--max-scans", type=int)
     ap.add_argument("--pause-after", type=int, help="stop publishing after N scans...")
     ap.add_argument("--pause-s", type=float, default=0.0, help="...for S seconds, new writer")
@@ -257,6 +281,16 @@ def main():
         odom_topic = Topic(dp, "rt" + a.odom_topic, m.Odometry)
         scans = DataWriter(dp, scan_topic, qos=SENSOR)
         odom = DataWriter(dp, odom_topic, qos=SENSOR)
+        tf = DataWriter(dp, Topic(dp, "rt/tf", m.TFMessage), qos=RELIABLE)
+        tf_static = DataWriter(
+            dp,
+            Topic(dp, "rt/tf_static", m.TFMessage),
+            qos=Qos(
+                Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+                Policy.Durability.TransientLocal,
+                Policy.History.KeepLast(100),
+            ),
+        )
         result["matched"] = wait_matched(scans, a.wait_node_s)
         wrong = None
         if a.wrong_type:
@@ -264,10 +298,11 @@ def main():
             other = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
             wrong = DataWriter(other, Topic(other, "rt" + a.scan_topic, m.String), qos=SENSOR)
         start_wall = time.monotonic()
-        start_stamp = stream[0][0] if stream else 0.0
+        stamps = [t for t, _, _ in stream if t != -math.inf]
+        start_stamp = stamps[0] if stamps else 0.0
         sent = 0
         for t, kind, msg in stream:
-            due = start_wall + (t - start_stamp) / a.rate
+            due = start_wall + (max(t, start_stamp) - start_stamp) / a.rate
             delay = due - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
@@ -283,8 +318,11 @@ def main():
                 sent += 1
                 if wrong is not None and sent <= a.wrong_type:
                     wrong.write(m.String("not a scan"))
-            elif not a.no_odometry:
-                odom.write(msg)
+            elif kind == "odom":
+                if not a.no_odometry:
+                    odom.write(msg)
+            elif not a.no_tf:
+                (tf_static if kind == "tf_static" else tf).write(msg)
         result["sent_scans"] = sent
         end = time.monotonic() + a.settle_s
         while time.monotonic() < end:
