@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use polymap::align::Verdict;
+use polymap::tracking::Verdict;
 
 use crate::tracking_support::{
     Mapped, WORLDS, jumps, mapped, odometry_ate_m, position_information, silent_drifts,

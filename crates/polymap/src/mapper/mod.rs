@@ -10,10 +10,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::align::{
-    AlignResult, GlobalSearch, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackConfig,
-    TrackInput, Tracking, Verdict, align_points, better, thin_points, track_scan, verdict,
-};
+use crate::align::{AlignResult, GlobalSearch, align_points, thin_points};
 use crate::config::Config;
 use crate::directions::recent_main_directions;
 use crate::extract::{extract_segments, extract_segments_closed};
@@ -22,10 +19,13 @@ use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, MotionD
 use crate::map::{GlobalMap, MapSegment, Observations};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
-pub use crate::motion::{MapperParams, MotionPrior};
 use crate::observe::observe_scan;
 use crate::polyline::group_polylines;
 use crate::scan::RangeScan;
+use crate::tracking::{
+    LoosePoints, MotionPrior, OdometryWitness, Reason, RecentMotion, TrackConfig, TrackInput,
+    Tracking, Verdict, better, track_scan, verdict,
+};
 
 /// What one scan did.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]

@@ -50,7 +50,7 @@ impl Mapper {
     /// Places a scan of a run on a saved map: ICP from the best few peaks of a global search
     /// (or of a search near the user's start), the best fit kept. The verdict is lost unless
     /// the fit is confident in every direction and no distinct pose explains the scan about as
-    /// well ([`crate::align::TrackParams::ambiguous_above`] of its inliers).
+    /// well ([`crate::tracking::TrackParams::ambiguous_above`] of its inliers).
     pub(super) fn place(&mut self, scan: &PreparedScan) -> (Option<AlignResult>, Tracking) {
         let params = self.config.tracking.clone();
         // The scans not yet placed are tracked among themselves, on a map of their own: it is
@@ -76,11 +76,13 @@ impl Mapper {
             _ => None,
         };
         if self.search.is_none() {
-            self.search = GlobalSearch::new(&self.map, &params).map(Box::new);
+            let (cell_m, sigma_m) = (params.search_cell_m, params.search_sigma_m);
+            self.search = GlobalSearch::new(&self.map, cell_m, sigma_m).map(Box::new);
         }
         let range_m = PLACE_RANGE_M;
+        let apart = (params.rival_apart_m, params.rival_apart_deg.to_radians());
         let peaks = match &self.search {
-            Some(search) => search.peaks(&points, hint, PLACE_PEAKS, range_m, &params),
+            Some(search) => search.peaks(&points, hint, PLACE_PEAKS, range_m, apart),
             None => Vec::new(),
         };
         let align = &self.config.align;

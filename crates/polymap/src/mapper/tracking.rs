@@ -1,7 +1,7 @@
 //! Where each scan is, as far as the mapper is concerned: the motion prior's guess and
-//! anchor, and the state [`crate::align::track_scan`] needs (the constant-velocity prediction,
+//! anchor, and the state [`crate::tracking::track_scan`] needs (the constant-velocity prediction,
 //! the recent motion, the lost streak, the loose points). The strategy itself (the ICP
-//! starts, the recovery, the window search, the verdict) lives in [`crate::align`].
+//! starts, the recovery, the window search, the verdict) lives in [`crate::tracking`].
 
 use super::*;
 
@@ -99,7 +99,7 @@ impl Mapper {
         })
     }
 
-    /// The pose of the scan and the verdict on it, from [`crate::align::track_scan`] with the
+    /// The pose of the scan and the verdict on it, from [`crate::tracking::track_scan`] with the
     /// mapper's state (and the log's odometry as a `witness` of the step); the pose is `None`
     /// when there is nothing to align to.
     pub(super) fn align(

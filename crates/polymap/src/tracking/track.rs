@@ -13,9 +13,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow, WindowBest};
-use super::raster::ScoreRaster;
-use super::{AlignResult, score_sample_n};
+use crate::align::{
+    AlignResult, Candidate, CorrelativeMatcher, ScoreRaster, SearchWindow, WindowBest,
+    score_sample_n,
+};
 use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
@@ -105,7 +106,7 @@ pub struct TrackParams {
     pub weak_below_information: f64,
     /// Without the odometry prior: a scan otherwise `ok` whose least observed translation has
     /// less information than this, and that ICP moved along that direction by less than
-    /// [`crate::align::STOPPED_BELOW_SHARE_OF_STEP`] of the last observed motion along it
+    /// [`crate::tracking::STOPPED_BELOW_SHARE_OF_STEP`] of the last observed motion along it
     /// (itself at least `search_above_step_m`), is `weak` (`slowed`): a fast robot's step
     /// along a corridor that a few door frames pulled back towards "no motion". 0 turns it
     /// off.
@@ -126,14 +127,14 @@ pub struct TrackParams {
     /// in the usual window, and the search's pose wins without `search_win_margin` when ICP
     /// from it observes every direction (translation information at least
     /// `weak_below_information`, the same key as the verdict's), lies within
-    /// [`crate::align::UNOBSERVED_ACROSS_M`] across the axis and
-    /// [`crate::align::UNOBSERVED_TURN_DEG`] of ICP's pose, and fits at least as many
+    /// [`crate::tracking::UNOBSERVED_ACROSS_M`] across the axis and
+    /// [`crate::tracking::UNOBSERVED_TURN_DEG`] of ICP's pose, and fits at least as many
     /// points: a corridor's far frames out of ICP's robust reach are the only evidence of a
     /// step along it, and the margin is no test of evidence against none.
     pub search_unobserved: bool,
     /// With `search_unobserved`: when neither ICP nor the window search observed the step
     /// along the axis, ICP also runs from poses along the axis, every
-    /// [`crate::align::UNOBSERVED_SEED_STEP_M`] up to this far on either side of ICP's pose,
+    /// [`crate::tracking::UNOBSERVED_SEED_STEP_M`] up to this far on either side of ICP's pose,
     /// metres (0: off; else at least one step and at most 3 m: up to 24 ICP runs per such
     /// scan), and the pose that passes the same test wins, unless a distinct one
     /// (more than `rival_apart_m` from it) passes too: a robot that starts along a corridor
@@ -190,7 +191,7 @@ pub struct TrackParams {
     /// When the final pose is still `lost` or a `poor_fit`, or (point-to-segment ICP) fits
     /// under `search_below_inlier_share` of the points whatever its verdict (the motion went
     /// beyond the window search), pose hypotheses from the scan's corners matched to the map's corners seed ICP
-    /// (see [`crate::align::corner_seeds`]); with the odometry prior turned at most
+    /// (see [`crate::tracking::corner_seeds`]); with the odometry prior turned at most
     /// `max_window_deg` from its guess, otherwise any turn.
     pub corner_hypotheses: bool,
     /// Only corner hypotheses within this distance of the prediction count, metres (the map
@@ -353,11 +354,11 @@ impl TrackParams {
             .rule(
                 "unobserved_reach_m",
                 self.unobserved_reach_m == 0.0
-                    || self.unobserved_reach_m >= crate::align::UNOBSERVED_SEED_STEP_M,
+                    || self.unobserved_reach_m >= crate::tracking::UNOBSERVED_SEED_STEP_M,
                 self.unobserved_reach_m,
                 format_args!(
                     "0 (off) or at least {} m",
-                    crate::align::UNOBSERVED_SEED_STEP_M
+                    crate::tracking::UNOBSERVED_SEED_STEP_M
                 ),
             )
             .within("odometry_check_m", self.odometry_check_m, 0.0, 1e3)
@@ -457,7 +458,7 @@ pub struct Tracking {
     /// recovery's, or ICP's from a pose along an axis ICP observed weakly or not at all (the
     /// last may win where the window search did not run).
     pub search_won: bool,
-    /// Whether ICP from a corner hypothesis ([`crate::align::corner_seeds`]) won: the scan
+    /// Whether ICP from a corner hypothesis ([`crate::tracking::corner_seeds`]) won: the scan
     /// moved beyond the window search.
     #[serde(default)]
     pub corner_won: bool,

@@ -81,19 +81,19 @@
 //!    log's odometry, witnessing without being the prior, gives the step another length
 //!    ([`OdometryWitness`]).
 
-use super::global::bounds;
+use super::corner_seeds;
+use super::motion::{MapperParams, MotionPrior};
 use super::track::{
     LOOSE_OFF_MAP_M, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackParams, Tracking,
     Verdict, WindowMatch, search_window, should_search, verdict, window_search,
 };
-use super::{
+use crate::align::{
     AlignMethod, AlignParams, AlignResult, Candidate, PointTargets, SearchWindow, SegmentLookup,
-    align_endpoints, align_points_and_loose, align_points_past_ends, corner_seeds, fit_score,
+    align_endpoints, align_points_and_loose, align_points_past_ends, bounds, fit_score,
     fit_score_above, map_bounds, rotation_search, score_sample, thin_points,
 };
 use crate::geometry::{Pose2, Segment, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
-use crate::motion::{MapperParams, MotionPrior};
 
 /// What the mapper knows when it aligns one scan.
 #[derive(Debug, Clone, Copy)]
