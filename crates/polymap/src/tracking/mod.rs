@@ -3,18 +3,19 @@
 //! scan; scan matching itself (ICP, the raster, the correlative matcher) is [`crate::align`].
 
 mod corner_seeds;
-mod motion;
+mod params;
+mod recent;
 mod strategy;
-mod track;
+mod verdict;
+mod window;
 
 pub use corner_seeds::corner_seeds;
-pub use motion::{MapperParams, MotionPrior};
+pub use params::{MapperParams, MotionPrior, TrackParams};
+pub use recent::{LOOSE_OFF_MAP_M, LoosePoints, RecentMotion};
 pub use strategy::{
-    PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M, STOPPED_BELOW_SHARE_OF_STEP, TrackConfig, TrackInput,
-    UNOBSERVED_ACROSS_M, UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan,
-    whole_map_window,
+    PINNED_BELOW_INFORMATION, PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M,
+    STOPPED_BELOW_SHARE_OF_STEP, TrackConfig, TrackInput, UNOBSERVED_ACROSS_M,
+    UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan,
 };
-pub use track::{
-    LOOSE_OFF_MAP_M, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackParams, Tracking,
-    Verdict, WindowMatch, search_window, should_search, verdict, window_search,
-};
+pub use verdict::{OdometryWitness, Reason, Tracking, Verdict, verdict};
+pub use window::{WindowMatch, search_window, should_search, whole_map_window, window_search};
