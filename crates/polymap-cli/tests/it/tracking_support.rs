@@ -10,8 +10,8 @@ use std::time::Instant;
 
 use polymap::config::Config;
 use polymap::geometry::{Pose2, Segment, Vec2};
-use polymap::mapper::{Mapper, TrackingSummary};
-use polymap::tracking::{MotionPrior, Tracking, Verdict};
+use polymap::mapper::Mapper;
+use polymap::tracking::{MotionPrior, Tracking, TrackingSummary, Verdict};
 use polymap_eval::trajectory::{AteAlignment, PosePair, absolute_trajectory_error};
 use polymap_sim::odometry::OdometryFaults;
 use polymap_sim::{SimRun, simulate, world_by_name};

@@ -90,7 +90,7 @@ pub struct Tracking {
 }
 
 /// The log's odometry as a witness of one step, where it is not the motion prior: the pose
-/// the step starts from and the odometry's translation since. The mapper offers it only once
+/// the step starts from and the odometry's translation since. The tracker offers it only once
 /// the odometry has agreed with the scans (see
 /// `TrackingSummary::odometry_agrees_with_travel`): a stuck or scaled odometry witnesses
 /// nothing.
@@ -119,9 +119,9 @@ impl OdometryWitness {
 }
 
 impl Tracking {
-    /// Whether the mapper carries tracking on from this scan as from an `ok` one (the speed
-    /// observed, the last `ok` pose that bounds the reach, the support its sightings give the
-    /// walls, the odometry's travel check): `ok`, or `weak` only as `slowed` or
+    /// Whether tracking carries on from this scan as from an `ok` one (the speed observed, the
+    /// last `ok` pose that bounds the reach, the odometry's travel check) and the mapper counts
+    /// its sightings in the support of the walls: `ok`, or `weak` only as `slowed` or
     /// `off_odometry`. Those verdicts tell the user the step may be wrong; tracking from it is
     /// unchanged, since keeping such scans out of that state reshuffles the sparse runs
     /// (`docs/ARCHITECTURE.md`, "The verdict and what a run says"), and the odometry's travel check,

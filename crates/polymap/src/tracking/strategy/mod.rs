@@ -1,7 +1,7 @@
 //! The alignment strategy of tracking: where ICP starts, which result wins, when the window
 //! search runs and when its pose wins, the recovery after a gap, and the verdict.
 //!
-//! The mapper gathers its state into a [`TrackInput`] (the scan, the map, the motion prior's
+//! The [`Tracker`](super::Tracker) gathers its state into a [`TrackInput`] (the scan, the map, the motion prior's
 //! guess and anchor, the recent motion, how many scans in a row were lost) and asks
 //! [`track_scan`] for a pose and a verdict. In order:
 //!
@@ -97,7 +97,7 @@ use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
 use starts::loose_targets;
 
-/// What the mapper knows when it aligns one scan.
+/// What the tracker knows when it aligns one scan.
 #[derive(Debug, Clone, Copy)]
 pub struct TrackInput<'a> {
     /// The scan's valid points, robot frame, metres (thinned here to
@@ -141,11 +141,11 @@ pub struct TrackInput<'a> {
     /// Scans lost in a row just before this one.
     pub lost_streak: u32,
     /// Without the odometry prior, the log's odometry as a witness of the step, where the
-    /// mapper trusts it to witness (`tracking.odometry_witness_m`).
+    /// tracker trusts it to witness (`tracking.odometry_witness_m`).
     pub odometry_witness: Option<OdometryWitness>,
 }
 
-/// The parameters [`track_scan`] follows: ICP's, tracking's, and the mapper's start policy
+/// The parameters [`track_scan`] follows: ICP's, tracking's, and the start policy of `[mapper]`
 /// (`also_start_at_anchor`, `icp_from_best_start_only`, `start_score_margin`,
 /// `recover_below_inlier_share`, and whether `motion_prior` is odometry).
 #[derive(Debug, Clone, Copy)]
