@@ -15,7 +15,7 @@
 #[path = "../tests/it/tracking_support.rs"]
 mod tracking_support;
 
-use polymap::align::Verdict;
+use polymap::tracking::Verdict;
 use tracking_support::{
     WORLDS, config, jumps, map_every, odometry_ate_m, silent_drifts, simulate_world,
 };

@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow};
 use polymap::config::{Config, PRESETS};
-use polymap::mapper::MotionPrior;
+use polymap::tracking::MotionPrior;
 use polymap_io::input_file::read_regular_to_string;
 
 /// The most a configuration file may weigh: a full configuration is about 6 kB.

@@ -7,12 +7,12 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::{Context, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use polymap::align::Verdict;
 use polymap::config::Config;
 use polymap::geometry::Pose2;
 use polymap::loops::SavedNode;
-use polymap::mapper::{MapRole, Mapper, MotionPrior, PriorMap};
+use polymap::mapper::{MapRole, Mapper, PriorMap};
 use polymap::scan::Stamp;
+use polymap::tracking::{MotionPrior, Verdict};
 use polymap_export::formats::Format;
 use polymap_export::report::MapConsistency;
 use polymap_export::report::ReportData;

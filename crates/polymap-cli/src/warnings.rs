@@ -1,6 +1,6 @@
 //! Counted warnings about what the reader accepted but found odd.
 
-use polymap::mapper::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary, WEAK_STRETCH_M};
+use polymap::tracking::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary, WEAK_STRETCH_M};
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
 

@@ -14,7 +14,8 @@ use std::time::{Duration, Instant};
 
 use polymap::config::Config;
 use polymap::geometry::Vec2;
-use polymap::mapper::{Mapper, PreparedScan, ScanDiagnostics, StageSeconds, Update};
+use polymap::mapper::{Mapper, ScanDiagnostics, StageSeconds, Update};
+use polymap::scan::PreparedScan;
 use polymap::scan::{RangeScan, Stamp};
 use polymap_export::report::{ReportBudget, ReportData, ReportRecorder, SnapshotContent};
 use polymap_io::snapshot::ScanPoints;

@@ -376,7 +376,7 @@ impl Ros2Node {
         let summary = mapper.tracking_summary();
         let received = self.queue.received();
         let closures = mapper.loop_closures();
-        let entered = d.tracking.verdict != polymap::align::Verdict::Lost
+        let entered = d.tracking.verdict != polymap::tracking::Verdict::Lost
             && mapper.role() == polymap::mapper::MapRole::Build;
         self.map_dirty |= entered || closures != self.loop_closures;
         self.loop_closures = closures;

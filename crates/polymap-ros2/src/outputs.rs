@@ -72,7 +72,7 @@ pub fn covariance_xy_yaw(d: &ScanDiagnostics, range_m: f64) -> [[f64; 3]; 3] {
     let Some(fit) = d.align.as_ref() else {
         return unknown;
     };
-    if d.tracking.verdict == polymap::align::Verdict::Lost || fit.inliers == 0 {
+    if d.tracking.verdict == polymap::tracking::Verdict::Lost || fit.inliers == 0 {
         return unknown;
     }
     let sigma2 = fit.residual_rms_m.max(MIN_RESIDUAL_M).powi(2);
@@ -351,7 +351,7 @@ mod tests {
     #[test]
     fn a_lost_scan_has_an_unknown_pose() {
         let mut d = ScanDiagnostics::default();
-        d.tracking.verdict = polymap::align::Verdict::Lost;
+        d.tracking.verdict = polymap::tracking::Verdict::Lost;
         d.align = Some(fit(10, 0.02, TranslationInformation::default()));
         assert_eq!(covariance_xy_yaw(&d, 5.0)[1][1], UNKNOWN_VARIANCE);
     }

@@ -2,16 +2,16 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::align::{AlignMethod, AlignParams, TrackParams};
+use crate::align::{AlignMethod, AlignParams};
 use crate::check::InvalidParam;
 use crate::directions::DirectionParams;
 use crate::extract::ExtractParams;
 use crate::loops::LoopParams;
 use crate::map::MapParams;
 use crate::merge::MergeParams;
-use crate::motion::{MapperParams, MotionPrior};
 use crate::observe::ObserveParams;
 use crate::polyline::PolylineParams;
+use crate::tracking::{MapperParams, MotionPrior, TrackParams};
 
 /// Every parameter of the pipeline, one section per stage.
 ///

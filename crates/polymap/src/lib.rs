@@ -3,7 +3,7 @@
 //! Lakaemper, Latecki, Sun, Wolter). No I/O; metres and radians, frames named in identifiers.
 //!
 //! ```
-//! use polymap::{align::Verdict, config::Config, mapper::Mapper};
+//! use polymap::{config::Config, mapper::Mapper, tracking::Verdict};
 //! use polymap_sim::{SimParams, World, simulate};
 //!
 //! // 60 scans of a simulated hallway: `RangeScan`s (ranges, beam angles, stamp, odometry).
@@ -40,8 +40,11 @@
 //! - [`scan`]: range scans and their conversion to points.
 //! - [`extract`]: points to segments (Discrete Curve Evolution, total least squares refit).
 //! - [`polyline`]: segments to generalized polylines.
-//! - [`align`]: ICP of a scan against the map (endpoint and point-to-segment correspondences,
-//!   coarse rotation search); global alignment of a second map or a scan without a guess.
+//! - [`align`]: scan matching: ICP of a scan against the map (endpoint and point-to-segment
+//!   correspondences, coarse rotation search), the likelihood raster and the exact correlative
+//!   matcher, corner poses; global alignment of a second map or a scan without a guess.
+//! - [`tracking`]: where each scan is: the motion prior, ICP from its starts, the window
+//!   search, corner hypotheses and the verdict, with the state carried from scan to scan.
 //! - [`directions`]: main directions from the length-weighted direction histogram.
 //! - [`cost`]: the merged segment `ms(L1, L2, ad)` and the cost `C(L1, L2, ad)`.
 //! - [`merge`]: vertex insertion, restrictive pairing, simplification; a second map into the
@@ -69,11 +72,11 @@ pub mod loops;
 pub mod map;
 pub mod mapper;
 pub mod merge;
-pub mod motion;
 pub mod observe;
 pub mod polyline;
 pub mod scan;
 pub mod segment_index;
+pub mod tracking;
 
 #[cfg(test)]
 mod testutil;

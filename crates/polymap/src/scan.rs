@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{Pose2, Vec2};
+use crate::geometry::{Pose2, Segment, Vec2};
 
 /// A time stamp exactly as the log wrote it, with its value in seconds.
 ///
@@ -138,6 +138,23 @@ impl RangeScan {
             }
         }
     }
+}
+
+/// A scan made ready for mapping by [`crate::mapper::Mapper::prepare`]: what tracking and the
+/// map need of it, computed without the mapper's state, so that it may be done ahead (on
+/// another thread).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PreparedScan {
+    /// Valid returns within `extract.max_range_m`, robot frame, metres, in beam order.
+    pub points_in_robot: Vec<Vec2>,
+    /// Extracted segments, robot frame, metres.
+    pub segments_in_robot: Vec<Segment>,
+    /// The robot's odometry pose at scan time, odometry frame, if the log carries one.
+    pub odom_from_robot: Option<Pose2>,
+    /// The scan's stamp, seconds, when known (finite).
+    pub stamp_s: Option<f64>,
+    /// Wall-clock seconds the preparation took.
+    pub extract_s: f64,
 }
 
 #[cfg(test)]

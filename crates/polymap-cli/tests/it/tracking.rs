@@ -10,7 +10,7 @@
 
 use std::sync::Arc;
 
-use polymap::align::Verdict;
+use polymap::tracking::Verdict;
 
 use crate::tracking_support::{
     Mapped, WORLDS, jumps, mapped, odometry_ate_m, position_information, silent_drifts,
@@ -172,7 +172,7 @@ fn a_bare_middle_is_a_weak_stretch_and_observable_worlds_have_none() {
     assert!(
         stretches
             .iter()
-            .all(|w| w.travel_m >= polymap::mapper::WEAK_STRETCH_M)
+            .all(|w| w.travel_m >= polymap::tracking::WEAK_STRETCH_M)
     );
     for name in ["hall360", "hallway45", "office"] {
         let run = mapped(name, 1, false, false);

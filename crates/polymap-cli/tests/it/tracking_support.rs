@@ -8,10 +8,10 @@ use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
-use polymap::align::{Tracking, Verdict};
 use polymap::config::Config;
 use polymap::geometry::{Pose2, Segment, Vec2};
-use polymap::mapper::{Mapper, MotionPrior, TrackingSummary};
+use polymap::mapper::Mapper;
+use polymap::tracking::{MotionPrior, Tracking, TrackingSummary, Verdict};
 use polymap_eval::trajectory::{AteAlignment, PosePair, absolute_trajectory_error};
 use polymap_sim::odometry::OdometryFaults;
 use polymap_sim::{SimRun, simulate, world_by_name};

@@ -201,7 +201,7 @@ impl ScanStat {
             icp_iterations: d.align.as_ref().map_or(0, |a| sat(a.iterations)),
             scan_segments: sat(d.scan_segments),
             map_segments: sat(d.map_segments),
-            lost: d.tracking.verdict == polymap::align::Verdict::Lost,
+            lost: d.tracking.verdict == polymap::tracking::Verdict::Lost,
             after_gap: d.after_gap,
             off_odometry: d.off_odometry,
         }

@@ -10,7 +10,6 @@
 use super::correlative::{Candidate, CorrelativeMatcher, SearchWindow};
 use super::raster::ScoreRaster;
 use super::search::score_sample_n;
-use super::track::TrackParams;
 use crate::geometry::{Pose2, Vec2};
 use crate::map::GlobalMap;
 
@@ -32,9 +31,10 @@ pub struct GlobalSearch {
 }
 
 impl GlobalSearch {
-    /// Prepares `map` (cells `tracking.search_cell_m`, kernel `tracking.search_sigma_m`);
-    /// `None` for an empty map.
-    pub fn new(map: &GlobalMap, params: &TrackParams) -> Option<Self> {
+    /// Prepares `map` on a raster of `cell_m` cells with a kernel of scale `sigma_m` (metres;
+    /// tracking uses `tracking.search_cell_m` and `tracking.search_sigma_m`); `None` for an
+    /// empty map.
+    pub fn new(map: &GlobalMap, cell_m: f64, sigma_m: f64) -> Option<Self> {
         let (lo, hi) = map_bounds(map)?;
         let c = (lo + hi) * 0.5;
         let whole = SearchWindow {
@@ -42,7 +42,7 @@ impl GlobalSearch {
             half_xy_m: ((hi - lo) * 0.5).max_element(),
             half_theta_rad: std::f64::consts::PI,
         };
-        let mut raster = ScoreRaster::new(lo, hi, params.search_cell_m, params.search_sigma_m);
+        let mut raster = ScoreRaster::new(lo, hi, cell_m, sigma_m);
         for (_, s) in map.iter() {
             raster.add_segment(&s.segment);
         }
@@ -50,10 +50,11 @@ impl GlobalSearch {
         Some(GlobalSearch { matcher, whole })
     }
 
-    /// The best `max_peaks` distinct poses (apart by `tracking.rival_apart_m` or
-    /// `tracking.rival_apart_deg`) of `points_in_robot` anywhere in the map, or near `hint`
-    /// when one is given (within `hint_m` and `hint_rad`), best first. Empty for an empty scan,
-    /// or when nothing scores [`GLOBAL_MIN_SCORE`].
+    /// The best `max_peaks` distinct poses (`apart`: more than that many metres or radians
+    /// from each other; tracking uses `tracking.rival_apart_m` and `rival_apart_deg`) of
+    /// `points_in_robot` anywhere in the map, or near `hint` when one is given (within
+    /// `hint_m` and `hint_rad`), best first. Empty for an empty scan, or when nothing scores
+    /// [`GLOBAL_MIN_SCORE`].
     ///
     /// Points farther than `max_range_m` are left out when enough are nearer (a far point
     /// needs a finer rotation step: the search's cost).
@@ -63,7 +64,7 @@ impl GlobalSearch {
         hint: Option<(Pose2, f64, f64)>,
         max_peaks: usize,
         max_range_m: f64,
-        params: &TrackParams,
+        (apart_m, apart_rad): (f64, f64),
     ) -> Vec<Candidate> {
         let near: Vec<Vec2> = points_in_robot
             .iter()
@@ -92,8 +93,8 @@ impl GlobalSearch {
             &window,
             GLOBAL_MIN_SCORE,
             max_peaks,
-            params.rival_apart_m,
-            params.rival_apart_deg.to_radians(),
+            apart_m,
+            apart_rad,
         )
     }
 }
@@ -138,6 +139,12 @@ mod tests {
             .collect()
     }
 
+    /// Tracking's raster cell and kernel scale, metres, and how far apart its rivals are
+    /// (metres, radians).
+    const CELL_M: f64 = 0.1;
+    const SIGMA_M: f64 = 0.2;
+    const APART: (f64, f64) = (0.5, 10f64.to_radians());
+
     /// The peaks of a search over all of `map` prepared for it, points up to 8 m.
     fn peaks(
         map: &GlobalMap,
@@ -145,10 +152,9 @@ mod tests {
         hint: Option<(Pose2, f64, f64)>,
         max: usize,
     ) -> Vec<Candidate> {
-        let params = TrackParams::default();
-        GlobalSearch::new(map, &params)
+        GlobalSearch::new(map, CELL_M, SIGMA_M)
             .expect("a map with segments")
-            .peaks(points, hint, max, 8.0, &params)
+            .peaks(points, hint, max, 8.0, APART)
     }
 
     /// Points of the walls seen from `pose` (robot frame): every wall point within range that
@@ -205,7 +211,6 @@ mod tests {
     fn a_hint_limits_the_search_and_an_empty_map_gives_nothing() {
         let walls = room();
         let map = map_of(&walls, 1.0);
-        let params = TrackParams::default();
         let truth = Pose2::new(2.0, 2.0, 0.3);
         let points = scan_from(&walls, truth);
         let near = peaks(&map, &points, Some((truth, 0.5, 0.2)), 1);
@@ -224,7 +229,7 @@ mod tests {
                 .iter()
                 .all(|c| c.map_from_robot.translation().distance(truth.translation()) > 7.0)
         );
-        assert!(GlobalSearch::new(&GlobalMap::new(1.0, 1.0), &params).is_none());
+        assert!(GlobalSearch::new(&GlobalMap::new(1.0, 1.0), CELL_M, SIGMA_M).is_none());
         assert!(peaks(&map, &[], None, 3).is_empty());
     }
 }

@@ -22,7 +22,6 @@
 //! [`CorrelativeMatcher`] and ICP (`global.rs`).
 
 mod buffers;
-mod corner_seeds;
 mod correlative;
 mod endpoints;
 mod global;
@@ -33,22 +32,21 @@ mod point_to_segment;
 mod raster;
 mod search;
 mod solver;
-mod strategy;
-mod track;
 
 use serde::{Deserialize, Serialize};
 
 use crate::check::{Checks, InvalidParam};
 use crate::geometry::{Pose2, Segment, SegmentProjection, Vec2};
 use crate::segment_index::NearestCertificate;
-pub use corner_seeds::corner_seeds;
 pub use correlative::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow, WindowBest};
 pub use endpoints::align_endpoints;
+pub(crate) use global::bounds;
 pub use global::{GLOBAL_MIN_SCORE, GLOBAL_SEARCH_POINTS, GlobalSearch, map_bounds};
 pub use pair_search::{
     GlobalMatch, GlobalParams, MatchVerdict, MovingSide, ScoredPose, global_match, overlap_share,
     points_along,
 };
+pub(crate) use pair_search::{best_distinct, hypotheses, raster_score};
 pub use pairs::{Corner, corner_poses, corners};
 pub use point_to_segment::{
     EDGE_ON_BELOW, LOOSE_DISTINCT_M, LOOSE_GATE_M, LOOSE_LINE_BELOW, LOOSE_MIN_NEIGHBOURS,
@@ -58,15 +56,6 @@ pub use point_to_segment::{
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
 pub use solver::Constraint;
-pub use strategy::{
-    PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M, STOPPED_BELOW_SHARE_OF_STEP, TrackConfig, TrackInput,
-    UNOBSERVED_ACROSS_M, UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan,
-    whole_map_window,
-};
-pub use track::{
-    LOOSE_OFF_MAP_M, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackParams, Tracking,
-    Verdict, WindowMatch, search_window, should_search, verdict, window_search,
-};
 
 /// Which correspondences drive ICP.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]

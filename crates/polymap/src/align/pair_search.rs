@@ -480,7 +480,7 @@ fn map_of(segments: &[Segment], like: &GlobalMap) -> GlobalMap {
 }
 
 /// Every pose of every pair of matching corners, without repeats.
-pub(super) fn hypotheses(fixed: &[Corner], moving: &[Corner], params: &GlobalParams) -> Vec<Pose2> {
+pub(crate) fn hypotheses(fixed: &[Corner], moving: &[Corner], params: &GlobalParams) -> Vec<Pose2> {
     let tolerance = params.angle_tolerance_deg.to_radians();
     let mut moving: Vec<&Corner> = moving.iter().collect();
     moving.sort_by(|a, b| a.angle_rad.total_cmp(&b.angle_rad));
@@ -507,7 +507,7 @@ pub(super) fn hypotheses(fixed: &[Corner], moving: &[Corner], params: &GlobalPar
 }
 
 /// The mean raster value under `points` (moving frame) placed by `pose`.
-pub(super) fn raster_score(raster: &ScoreRaster, points: &[Vec2], pose: &Pose2) -> f64 {
+pub(crate) fn raster_score(raster: &ScoreRaster, points: &[Vec2], pose: &Pose2) -> f64 {
     if points.is_empty() {
         return 0.0;
     }
@@ -545,7 +545,7 @@ fn coarse_seeds(
 /// The best-scoring of `poses` on `raster` (the mean value under `sample`, moving frame) that
 /// score above `floor`, best first (equal scores in their given order), each `distinct` from
 /// every one kept before it, at most `max`: the seeds of a search from many hypotheses.
-pub(super) fn best_distinct(
+pub(crate) fn best_distinct(
     raster: &ScoreRaster,
     sample: &[Vec2],
     poses: &[Pose2],

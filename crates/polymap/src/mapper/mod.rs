@@ -1,19 +1,17 @@
-//! The incremental mapper ([`Mapper`]): scans pushed one at a time into the global map `G_t`,
-//! with the pose, tracking verdict and motion state carried from scan to scan.
+//! The incremental mapper ([`Mapper`]): scans pushed one at a time into the global map `G_t`.
 //!
-//! For each scan: points → segments (robot frame) → ICP against the map near the scan, started
-//! from the motion prior → segments to the map frame → main directions of `G_{t-1}(tm)` →
-//! vertex insertion, restrictive pairing, simplification against the map near the scan → `G_t`.
-//! The first map `G_1` is the first scan.
+//! For each scan: points → segments (robot frame) → track: the pose in the map and the verdict
+//! ([`Tracker::track`], which holds every state carried from scan to scan for it) → segments
+//! to the map frame → main directions of `G_{t-1}(tm)` → vertex insertion, restrictive
+//! pairing, simplification against the map near the scan → `G_t` → what the scan saw of the
+//! map → loop closure. The first map `G_1` is the first scan. The mapper owns the map, the
+//! trajectory, the loop closer and the placement of a run on a saved map.
 
 use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::align::{
-    AlignResult, GlobalSearch, LoosePoints, OdometryWitness, Reason, RecentMotion, TrackConfig,
-    TrackInput, Tracking, Verdict, align_points, better, thin_points, track_scan, verdict,
-};
+use crate::align::{AlignResult, GlobalSearch, align_points, thin_points};
 use crate::config::Config;
 use crate::directions::recent_main_directions;
 use crate::extract::{extract_segments, extract_segments_closed};
@@ -22,10 +20,12 @@ use crate::loops::{Correction, LoopCloser, LoopDiagnostics, LoopFailure, MotionD
 use crate::map::{GlobalMap, MapSegment, Observations};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
-pub use crate::motion::{MapperParams, MotionPrior};
 use crate::observe::observe_scan;
 use crate::polyline::group_polylines;
-use crate::scan::RangeScan;
+use crate::scan::{PreparedScan, RangeScan};
+use crate::tracking::{
+    Reason, ScanNumber, TrackedScan, Tracker, Tracking, TrackingSummary, Verdict, better, verdict,
+};
 
 /// What one scan did.
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
@@ -94,22 +94,6 @@ pub struct Update {
     pub diagnostics: ScanDiagnostics,
 }
 
-/// A scan made ready for mapping by [`Mapper::prepare`]: what the mapper needs of it, computed
-/// without the mapper's state, so that it may be done ahead (on another thread).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PreparedScan {
-    /// Valid returns within `extract.max_range_m`, robot frame, metres, in beam order.
-    pub points_in_robot: Vec<Vec2>,
-    /// Extracted segments, robot frame, metres.
-    pub segments_in_robot: Vec<Segment>,
-    /// The robot's odometry pose at scan time, odometry frame, if the log carries one.
-    pub odom_from_robot: Option<Pose2>,
-    /// The scan's stamp, seconds, when known (finite).
-    pub stamp_s: Option<f64>,
-    /// Wall-clock seconds the preparation took.
-    pub extract_s: f64,
-}
-
 /// A map saved by an earlier run, for a run to start from ([`Mapper::on_map`]).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct PriorMap {
@@ -153,7 +137,7 @@ enum Placement {
     Near(Pose2),
 }
 
-/// The incremental geometric mapper.
+/// The incremental geometric mapper: track, merge, observe, close loops.
 #[derive(Debug, Clone)]
 pub struct Mapper {
     config: Config,
@@ -177,221 +161,10 @@ pub struct Mapper {
     agreement: Option<(Pose2, u32)>,
     /// ...and the saved map prepared for the global search.
     search: Option<Box<GlobalSearch>>,
-    last_pose: Option<Pose2>,
-    prev_pose: Option<Pose2>,
-    /// The last observed motion (`mapper.keep_observed_velocity`).
-    observed: ObservedSpeed,
-    last_odom: Option<Pose2>,
-    /// The last scan tracked `ok`: its index (the map's numbering), pose and stamp.
-    last_ok: Option<(u32, Pose2, Option<f64>)>,
-    /// The odometry pose of that scan (odometry frame), when it had one.
-    last_ok_odom: Option<Pose2>,
+    /// Where each scan is: the motion prior's state, the strategy, the verdicts.
+    tracker: Tracker,
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
-    loose: LoosePoints,
-    recent: RecentMotion,
-    lost_streak: u32,
-    verdicts: TrackingSummary,
-}
-
-/// Verdict counts over a run, and the runs of consecutive lost scans.
-#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
-pub struct TrackingSummary {
-    /// Scans tracked confidently.
-    pub ok: u32,
-    /// Scans with a direction taken from the motion prior, a direction observed by few
-    /// points, a poor fit or a rival pose.
-    pub weak: u32,
-    /// Of the `weak` scans, those weak only because a direction was observed by few points
-    /// (`weakly_observed`): common along any corridor, also where tracking is accurate, so the
-    /// run's warning does not count them.
-    #[serde(default)]
-    pub weakly_observed: u32,
-    /// Scans with no confident match (they did not enter the map).
-    pub lost: u32,
-    /// Inclusive ranges `[first, last]` of consecutive lost scans (scan indices, 0-based).
-    pub lost_ranges: Vec<[u32; 2]>,
-    /// Scans that follow a gap in the log: a time step at least 3 typical ones, in stamps
-    /// that keep time (scans are missing there; without odometry the motion across it is
-    /// predicted over its time). Stamps that bunch or go back say nothing, and count none.
-    #[serde(default)]
-    pub gaps: u32,
-    /// The first [`MAX_GAP_SCANS`] of them (scan indices, 0-based).
-    #[serde(default)]
-    pub gap_scans: Vec<u32>,
-    /// Where the log has odometry: how far it says the robot went between consecutive scans
-    /// both tracked `ok`, metres (summed step lengths)...
-    #[serde(default)]
-    pub odometry_travel_m: f64,
-    /// ...and how far the tracked poses went between the same scans, metres. Odometry that
-    /// reads under half or over twice the scans' travel is stuck, scaled or not this robot's
-    /// (the benchmark logs: within 2 %).
-    #[serde(default)]
-    pub tracked_travel_m: f64,
-    /// Without the odometry prior, while the log's odometry agrees with the scans
-    /// ([`TrackingSummary::odometry_agrees_with_travel`]): the scans not lost whose tracked
-    /// step lies more than `tracking.odometry_witness_m` from the odometry's and from its
-    /// reverse ([`OdometryWitness`]), whatever their verdict (an `ok` one becomes `weak`,
-    /// `off_odometry`); one slip of the odometry counts twice, the step to it and from it.
-    /// Where sparse scans leave a corridor tracked short (`weakly_observed` scans, which do
-    /// not raise the weak warning) these are the sign: the benchmark logs' runs of every 10th
-    /// scan have 0.9–9.9 %, their dense runs none. A dense run shortening a corridor by a few
-    /// millimetres per scan stays under the threshold at every step.
-    #[serde(default)]
-    pub off_odometry: u32,
-    /// The first [`MAX_GAP_SCANS`] of them (scan indices, 0-based).
-    #[serde(default)]
-    pub off_odometry_scans: Vec<u32>,
-    /// Runs of consecutive `weak` scans over which the robot went at least
-    /// [`WEAK_STRETCH_M`], tracked or by the log's odometry (the larger): there the motion
-    /// came from the motion prior or from few points for metres on end, and a corridor may
-    /// come out short. Scattered weak scans, common along corridors also where tracking is
-    /// accurate, make no such stretch.
-    #[serde(default)]
-    pub weak_stretches: Vec<WeakStretch>,
-    /// The run of weak scans going on, with its tracked and odometry travel (metres).
-    #[serde(skip)]
-    open_weak: Option<(WeakStretch, f64, f64)>,
-}
-
-/// A run of consecutive `weak` scans ([`TrackingSummary::weak_stretches`]).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct WeakStretch {
-    /// The first scan of the run (scan index, 0-based).
-    pub first: u32,
-    /// The last scan of the run (inclusive).
-    pub last: u32,
-    /// How far the robot went over the run, from the scan before it to its last scan: the
-    /// tracked poses' travel or the log's odometry's, the larger, metres.
-    pub travel_m: f64,
-}
-
-/// A run of consecutive weak scans over at least this travel is a weak stretch
-/// ([`TrackingSummary::weak_stretches`]), metres. The benchmark logs' dense runs have none
-/// (the longest: ACES 4.1 m, Intel 1.7 m, FR079 none), nor do their runs of every 3rd and 5th
-/// scan (ACES 5.3-8.8 m, the others under 5 m), where tracking is accurate; the simulated
-/// corridor, whose middle no feature observes along it, has two of 25 and 28 m (ATE 1.17 m),
-/// and 14 of the 30 runs of every 10th scan have them, all broken (every ACES phase, FR079
-/// phases 4, 6 and 8, Intel phase 9).
-pub const WEAK_STRETCH_M: f64 = 10.0;
-
-/// At most this many gap scans are listed in [`TrackingSummary::gap_scans`] (all are counted),
-/// and as many in [`TrackingSummary::off_odometry_scans`].
-pub const MAX_GAP_SCANS: usize = 100;
-
-/// Tracked travel below which the log's odometry is not judged against the scans, metres: a
-/// few scans of a robot that hardly moved say nothing of its odometry.
-pub const ODOMETRY_CHECK_MIN_TRAVEL_M: f64 = 5.0;
-
-/// The log's odometry witnesses the steps ([`OdometryWitness`]) while its travel between
-/// consecutive `ok` scans is within this factor of the scans' either way (the benchmark logs:
-/// within 2 %; a wheel 10 % too small still witnesses).
-pub const ODOMETRY_WITNESS_WITHIN: f64 = 1.25;
-
-impl TrackingSummary {
-    /// Counts the lost scans `first..=last` (one lost range) as weak instead.
-    fn relabel_lost_as_weak(&mut self, first: u32, last: u32) {
-        let n = last - first + 1;
-        if let Some(i) = self.lost_ranges.iter().position(|r| *r == [first, last]) {
-            self.lost_ranges.remove(i);
-            self.lost -= n;
-            self.weak += n;
-        }
-    }
-
-    /// Counts scan `t` as following a gap in the log.
-    fn count_gap(&mut self, t: u32) {
-        self.gaps += 1;
-        if self.gap_scans.len() < MAX_GAP_SCANS {
-            self.gap_scans.push(t);
-        }
-    }
-
-    /// Adds the step between two consecutive scans tracked `ok`: `odometry_m` as the log's
-    /// odometry reads it, `tracked_m` as tracked.
-    fn count_travel(&mut self, odometry_m: f64, tracked_m: f64) {
-        if odometry_m.is_finite() && tracked_m.is_finite() {
-            self.odometry_travel_m += odometry_m;
-            self.tracked_travel_m += tracked_m;
-        }
-    }
-
-    /// Whether the log's odometry travelled under half or over twice what the scans did, over
-    /// at least `min_travel_m` of tracked travel: odometry that is stuck, scaled or not the
-    /// robot's (see [`TrackingSummary::tracked_travel_m`]).
-    pub fn odometry_disagrees_with_travel(&self, min_travel_m: f64) -> bool {
-        self.odometry_within(min_travel_m, 2.0) == Some(false)
-    }
-
-    /// Whether the log's odometry travelled within [`ODOMETRY_WITNESS_WITHIN`] of what the
-    /// scans did (see [`TrackingSummary::odometry_travel_m`]), over at least `min_travel_m` of
-    /// tracked travel: odometry fit to witness the steps.
-    pub fn odometry_agrees_with_travel(&self, min_travel_m: f64) -> bool {
-        self.odometry_within(min_travel_m, ODOMETRY_WITNESS_WITHIN) == Some(true)
-    }
-
-    /// Over at least `min_travel_m` of tracked travel, whether the odometry's travel lies
-    /// within `factor` of the scans' either way; `None` below it.
-    fn odometry_within(&self, min_travel_m: f64, factor: f64) -> Option<bool> {
-        let (odo, scans) = (self.odometry_travel_m, self.tracked_travel_m);
-        (scans >= min_travel_m).then(|| odo >= scans / factor && odo <= scans * factor)
-    }
-
-    /// Takes the step to scan `t` into the run of weak scans: `weak` extends it (by
-    /// `tracked_m`, and `odometry_m` where the log has odometry, metres), anything else ends
-    /// it; a run that reaches [`WEAK_STRETCH_M`] is listed, and updated while it goes on.
-    fn count_weak_step(&mut self, t: u32, weak: bool, tracked_m: f64, odometry_m: Option<f64>) {
-        if !weak {
-            self.open_weak = None;
-            return;
-        }
-        let finite = |m: f64| if m.is_finite() { m } else { 0.0 };
-        let (mut run, mut tracked, mut odometry) = self.open_weak.take().unwrap_or((
-            WeakStretch {
-                first: t,
-                last: t,
-                travel_m: 0.0,
-            },
-            0.0,
-            0.0,
-        ));
-        tracked += finite(tracked_m);
-        odometry += odometry_m.map_or(0.0, finite);
-        run.last = t;
-        run.travel_m = tracked.max(odometry);
-        if run.travel_m >= WEAK_STRETCH_M {
-            match self.weak_stretches.last_mut() {
-                Some(listed) if listed.first == run.first => *listed = run,
-                _ => self.weak_stretches.push(run),
-            }
-        }
-        self.open_weak = Some((run, tracked, odometry));
-    }
-
-    /// Counts scan `t` as tracked off the log's odometry.
-    fn count_off_odometry(&mut self, t: u32) {
-        self.off_odometry += 1;
-        if self.off_odometry_scans.len() < MAX_GAP_SCANS {
-            self.off_odometry_scans.push(t);
-        }
-    }
-
-    fn count(&mut self, t: u32, verdict: Verdict, reason: Reason) {
-        match verdict {
-            Verdict::Ok => self.ok += 1,
-            Verdict::Weak => {
-                self.weak += 1;
-                self.weakly_observed += u32::from(reason == Reason::WeaklyObserved);
-            }
-            Verdict::Lost => {
-                self.lost += 1;
-                match self.lost_ranges.last_mut() {
-                    Some(r) if r[1] + 1 == t => r[1] = t,
-                    _ => self.lost_ranges.push([t, t]),
-                }
-            }
-        }
-    }
 }
 
 impl Mapper {
@@ -409,22 +182,17 @@ impl Mapper {
             local: None,
             agreement: None,
             search: None,
-            last_pose: None,
-            prev_pose: None,
-            observed: ObservedSpeed::default(),
-            last_odom: None,
-            last_ok: None,
-            last_ok_odom: None,
+            tracker: Tracker::new(
+                config.align.clone(),
+                config.tracking.clone(),
+                config.mapper.clone(),
+            ),
             loops: LoopCloser::new(
                 config.loops.clone(),
                 config.align.clone(),
                 config.map.grid_cell_m,
             ),
             trajectory: Vec::new(),
-            loose: LoosePoints::default(),
-            recent: RecentMotion::default(),
-            lost_streak: 0,
-            verdicts: TrackingSummary::default(),
             config,
         }
     }
@@ -552,7 +320,7 @@ impl Mapper {
 
     /// Tracking verdict counts so far, with the ranges of lost scans.
     pub fn tracking_summary(&self) -> &TrackingSummary {
-        &self.verdicts
+        self.tracker.summary()
     }
 
     /// Loop edges accepted so far.
@@ -629,97 +397,23 @@ impl Mapper {
     pub fn push_prepared(&mut self, scan: PreparedScan) -> Update {
         let i = self.scans;
         let t = self.first_scan.saturating_add(i);
+        let at = ScanNumber { run: i, map: t };
         let clock = Instant::now();
-        let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot, scan.stamp_s);
-        let placing = self.placement != Placement::Placed;
-        let witness = self.odometry_witness(scan.odom_from_robot);
-        let (align, tracking) = match placing {
-            true => self.place(&scan),
-            false => self.align(&scan, guess, anchor, unobserved_to, witness),
+        // Track, then merge, observe and close loops. A run on a saved map searches for its
+        // place first (`place_scan`).
+        let tracked = match self.placement {
+            Placement::Placed => self.tracker.track(at, &scan, &self.map),
+            _ => self.place_scan(at, &scan),
         };
-        // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
-        // like a scan with too few correspondences; the very first scan starts the map frame.
-        // A lost scan keeps its (poor) fit, the best guess there is, but stays out of the map.
-        let fallback = match self.placement {
-            Placement::Near(start) => start,
-            _ if self.map.is_empty() || placing => guess,
-            _ => anchor,
-        };
-        let pose = align.map_or(fallback, |a| a.map_from_robot);
-        let lost = tracking.verdict == Verdict::Lost;
-        // A run on a saved map is placed by its first confident match, or where the user said
-        // it starts; until then nothing of it is tracked from, merged or closed into loops.
-        if placing && (!lost || matches!(self.placement, Placement::Near(_))) {
-            self.placement = Placement::Placed;
-            self.loop_base = t;
-            self.place_earlier_scans(&pose, lost);
-        }
+        let TrackedScan {
+            map_from_robot: pose,
+            align,
+            tracking,
+            enters_map: enters,
+            after_gap,
+            off_odometry,
+        } = tracked;
         let placed = self.placement == Placement::Placed;
-        let mut after_gap = false;
-        let mut off_odometry = false;
-        if placed {
-            // Observed: tracked `ok` (or only `slowed`, see `Tracking::carries_tracking`) with
-            // every direction observed; a motion between two observed scans is evidence of the
-            // robot's speed.
-            let observed =
-                tracking.carries_tracking() && align.is_some_and(|a| a.weak_directions == 0);
-            if let Some(last) = self.last_pose {
-                self.recent.push(&last, &pose);
-            }
-            let step = self.last_pose.map(|last| last.between(&pose));
-            self.observed
-                .record(step, observed && !tracking.corner_won, scan.stamp_s);
-            after_gap = self.observed.last_gap_scale() > 1.0;
-            if after_gap {
-                self.verdicts.count_gap(i);
-            }
-            let off = self.config.tracking.odometry_witness_m;
-            off_odometry = !lost && witness.is_some_and(|w| w.contradicts(&pose, off));
-            if off_odometry {
-                self.verdicts.count_off_odometry(i);
-            }
-            // The step's length as tracked and as the log's odometry read it, metres.
-            let tracked_m = self
-                .last_pose
-                .map(|last| last.between(&pose).translation().length());
-            let odometry_m = self
-                .last_odom
-                .zip(scan.odom_from_robot)
-                .map(|(a, b)| a.between(&b).translation().length());
-            // The log's odometry against the scans, between consecutive `ok` scans.
-            let ok = tracking.carries_tracking();
-            let last_was_ok = self
-                .last_ok
-                .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
-            if let (true, Some(tracked_m), Some(odometry_m)) =
-                (ok && last_was_ok, tracked_m, odometry_m)
-            {
-                self.verdicts.count_travel(odometry_m, tracked_m);
-            }
-            let weak = tracking.verdict == Verdict::Weak;
-            self.verdicts
-                .count_weak_step(i, weak, tracked_m.unwrap_or(0.0), odometry_m);
-            self.prev_pose = self.last_pose.replace(pose);
-            self.last_odom = scan.odom_from_robot;
-            if tracking.carries_tracking() {
-                self.last_ok = Some((t, pose, scan.stamp_s));
-                self.last_ok_odom = scan.odom_from_robot;
-            }
-        }
-        self.verdicts.count(i, tracking.verdict, tracking.reason);
-        self.lost_streak = if lost { self.lost_streak + 1 } else { 0 };
-        // A scan trusted too little to merge neither explains later searches (loose points)
-        // nor observes the map (see-through counts prune walls).
-        let enters = tracking.enters_map(self.config.tracking.merge_doubtful_scans);
-        if enters {
-            let spacing = self.config.tracking.loose_point_spacing_m;
-            let loose = thin_points(&scan.points_in_robot, spacing)
-                .into_iter()
-                .map(|p| pose.transform_point(p))
-                .collect();
-            self.loose
-                .push(loose, self.config.tracking.loose_point_scans);
-        }
         let aligned = Instant::now();
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
@@ -845,17 +539,11 @@ impl Mapper {
         {
             *pose = delta(run_first.saturating_add(i as u32)).compose(pose);
         }
+        // The tracker's last poses move too, so the next step does not count the correction as
+        // motion; a pose older than the first node the correction moves stays (`delta` would
+        // give it the newest node's correction).
         let t = (run_first + self.scans).saturating_sub(1);
-        self.last_pose = self.last_pose.map(|p| delta(t).compose(&p));
-        self.prev_pose = self
-            .prev_pose
-            .map(|p| delta(t.saturating_sub(1)).compose(&p));
-        // A pose older than the first node the correction moves stays (`delta` would give it
-        // the newest node's correction).
-        self.last_ok = self.last_ok.map(|(i, p, stamp)| match i >= first_scan {
-            true => (i, delta(i).compose(&p), stamp),
-            false => (i, p, stamp),
-        });
+        self.tracker.apply_correction(t, first_scan, delta);
     }
 }
 
@@ -863,8 +551,6 @@ mod observed;
 mod placement;
 #[cfg(test)]
 mod tests;
-mod tracking;
-use tracking::ObservedSpeed;
 
 /// The doubt on a scan's motion for the pose graph: along the direction ICP could not observe
 /// when the scan is `weak` for it (`degenerate`: the motion along it came from the prior),

@@ -43,14 +43,37 @@ impl Mapper {
         for (k, p) in earlier.iter().enumerate() {
             self.trajectory[first + k] = map_from_local.compose(p);
         }
-        self.verdicts
+        self.tracker
             .relabel_lost_as_weak(first as u32, (first + earlier.len() - 1) as u32);
+    }
+
+    /// A scan of a run not yet placed on its saved map: placed by [`Mapper::place`], and taken
+    /// into the tracker with the pose found. A run is placed by its first confident match, or
+    /// where the user said it starts; until then nothing of it is tracked from, merged or
+    /// closed into loops, and a scan without a fit stays at the user's start or at the
+    /// tracker's first guess.
+    pub(super) fn place_scan(&mut self, at: ScanNumber, scan: &PreparedScan) -> TrackedScan {
+        let (align, tracking) = self.place(scan);
+        let fallback = match self.placement {
+            Placement::Near(start) => start,
+            _ => self.tracker.guess(scan.odom_from_robot, scan.stamp_s).0,
+        };
+        let pose = align.map_or(fallback, |a| a.map_from_robot);
+        let lost = tracking.verdict == Verdict::Lost;
+        let placed = !lost || matches!(self.placement, Placement::Near(_));
+        if placed {
+            self.placement = Placement::Placed;
+            self.loop_base = at.map;
+            self.place_earlier_scans(&pose, lost);
+        }
+        self.tracker
+            .take_pose(at, scan, pose, align, tracking, placed)
     }
 
     /// Places a scan of a run on a saved map: ICP from the best few peaks of a global search
     /// (or of a search near the user's start), the best fit kept. The verdict is lost unless
     /// the fit is confident in every direction and no distinct pose explains the scan about as
-    /// well ([`crate::align::TrackParams::ambiguous_above`] of its inliers).
+    /// well ([`crate::tracking::TrackParams::ambiguous_above`] of its inliers).
     pub(super) fn place(&mut self, scan: &PreparedScan) -> (Option<AlignResult>, Tracking) {
         let params = self.config.tracking.clone();
         // The scans not yet placed are tracked among themselves, on a map of their own: it is
@@ -76,11 +99,13 @@ impl Mapper {
             _ => None,
         };
         if self.search.is_none() {
-            self.search = GlobalSearch::new(&self.map, &params).map(Box::new);
+            let (cell_m, sigma_m) = (params.search_cell_m, params.search_sigma_m);
+            self.search = GlobalSearch::new(&self.map, cell_m, sigma_m).map(Box::new);
         }
         let range_m = PLACE_RANGE_M;
+        let apart = (params.rival_apart_m, params.rival_apart_deg.to_radians());
         let peaks = match &self.search {
-            Some(search) => search.peaks(&points, hint, PLACE_PEAKS, range_m, &params),
+            Some(search) => search.peaks(&points, hint, PLACE_PEAKS, range_m, apart),
             None => Vec::new(),
         };
         let align = &self.config.align;

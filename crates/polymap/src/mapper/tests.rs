@@ -1,5 +1,6 @@
 use super::*;
 use crate::testutil::scan_from;
+use crate::tracking::MotionPrior;
 
 fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Segment {
     Segment::new(Vec2::new(ax, ay), Vec2::new(bx, by))
@@ -267,22 +268,6 @@ fn a_kidnapped_robot_is_lost_then_found_again() {
     );
 }
 
-#[test]
-fn weakly_observed_scans_are_counted_apart_within_the_weak() {
-    let mut t = TrackingSummary::default();
-    t.count(0, Verdict::Ok, Reason::Fit);
-    t.count(1, Verdict::Weak, Reason::WeaklyObserved);
-    t.count(2, Verdict::Weak, Reason::Degenerate);
-    t.count(3, Verdict::Lost, Reason::Contradicted);
-    t.count(4, Verdict::Lost, Reason::TooFewInliers);
-    assert_eq!((t.ok, t.weak, t.weakly_observed, t.lost), (1, 2, 1, 2));
-    assert_eq!(t.lost_ranges, vec![[3, 4]]);
-    // summary.json files written before the field read as none.
-    let old: TrackingSummary =
-        serde_json::from_str(r#"{"ok": 3, "weak": 1, "lost": 0, "lost_ranges": []}"#).unwrap();
-    assert_eq!(old.weakly_observed, 0);
-}
-
 /// A corridor 2 m wide with a few door recesses at uneven spacing: ICP observes a step along it
 /// only near a recess, and a long step not at all.
 fn recessed_corridor() -> Vec<Segment> {
@@ -307,7 +292,8 @@ fn recessed_corridor() -> Vec<Segment> {
 
 /// Scans missing from a log (a gap of 1.5 s where the laser gives one every 0.1 s, the robot
 /// going on at 1 m/s): the scan after the gap is predicted over the gap's time, and the
-/// corridor is tracked; a log whose stamps bunch says nothing about time.
+/// corridor is tracked (stamps that bunch say nothing about time:
+/// `tracking::speed`'s `bunched_stamps_do_not_time_a_gap`).
 #[test]
 fn a_gap_in_the_log_is_predicted_over_its_time() {
     let walls = recessed_corridor();
@@ -321,7 +307,7 @@ fn a_gap_in_the_log_is_predicted_over_its_time() {
             pairs.push((truth, u.map_from_robot));
             if i == 40 + gap_scans {
                 // The prediction for the next scan: one scan's motion, not the gap's.
-                let (guess, _, _) = mapper.guess(None, Some(stamp_of(i + 1)));
+                let (guess, _, _) = mapper.tracker.guess(None, Some(stamp_of(i + 1)));
                 step_after_gap = Some(u.map_from_robot.between(&guess).x_m);
             }
         }
@@ -344,14 +330,6 @@ fn a_gap_in_the_log_is_predicted_over_its_time() {
     let (unbroken, summary, _) = run(0, &timed);
     assert!(unbroken < 0.1, "{unbroken} m off without a gap");
     assert_eq!(summary.gaps, 0);
-    // Stamps that bunch (every other scan 1 ms after the one before) do not time the gap:
-    // the prediction is one scan's motion, as before.
-    let bunched = |i: usize| 0.2 * (i / 2) as f64 + 0.001 * (i % 2) as f64;
-    let mut speed = ObservedSpeed::default();
-    for i in 0..40 {
-        speed.record(Some(Pose2::new(0.1, 0.0, 0.0)), true, Some(bunched(i)));
-    }
-    assert_eq!(speed.gap_scale(Some(bunched(55))), 1.0);
 }
 
 /// What [`drive_witnessed`] returns: each scan's update, the run's summary, the final map.
@@ -455,43 +433,4 @@ fn odometry_that_cannot_witness_flags_nothing() {
     // one, not from the held pose of the last lost one, and is tracked right.
     let blind = |i: usize| (60..64).contains(&i);
     assert_eq!(quiet(&|_, truth| *truth, &blind), (0, 0));
-}
-
-#[test]
-fn runs_of_weak_scans_over_ten_metres_are_weak_stretches() {
-    let mut t = TrackingSummary::default();
-    // Nine weak metres, then an `ok` scan: no stretch.
-    for i in 0..9 {
-        t.count_weak_step(i, true, 1.0, None);
-    }
-    t.count_weak_step(9, false, 1.0, None);
-    assert!(t.weak_stretches.is_empty());
-    // Weak from scan 10: listed once it reaches 10 m (scan 19), updated while it goes on,
-    // ended by a scan that is not weak.
-    for i in 10..25 {
-        t.count_weak_step(i, true, 1.0, Some(0.5));
-        let listed = t.weak_stretches.len();
-        assert_eq!(listed, usize::from(i >= 19), "scan {i}");
-    }
-    t.count_weak_step(25, false, 1.0, None);
-    let run = WeakStretch {
-        first: 10,
-        last: 24,
-        travel_m: 15.0,
-    };
-    assert_eq!(t.weak_stretches, vec![run]);
-    // A stall tracked at no motion where the log's odometry went on: the odometry's travel
-    // counts; a step that is not finite counts nothing.
-    for i in 30..42 {
-        t.count_weak_step(i, true, 0.0, Some(1.0));
-    }
-    t.count_weak_step(42, true, f64::NAN, Some(f64::INFINITY));
-    assert_eq!(t.weak_stretches.len(), 2);
-    assert_eq!(t.weak_stretches[1].first, 30);
-    assert_eq!(t.weak_stretches[1].last, 42);
-    assert!((t.weak_stretches[1].travel_m - 12.0).abs() < 1e-12);
-    // Serialized without the run going on.
-    let json = serde_json::to_string(&t).expect("json");
-    assert!(json.contains("\"weak_stretches\""), "{json}");
-    assert!(!json.contains("open_weak"), "{json}");
 }

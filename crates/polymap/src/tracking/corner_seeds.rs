@@ -5,10 +5,9 @@
 //! score. The window search is exact but only within its window (at most ±1 m and ±90° while
 //! tracking); a corner seen in both the scan and the map gives the true pose wherever it is.
 
-use super::correlative::Candidate;
-use super::pair_search::{GlobalParams, best_distinct, hypotheses, raster_score};
-use super::pairs::corners;
-use super::track::{TrackParams, search_raster, search_sample};
+use super::params::TrackParams;
+use super::window::{search_raster, search_sample};
+use crate::align::{Candidate, GlobalParams, best_distinct, corners, hypotheses, raster_score};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
 

@@ -1,156 +1,7 @@
-//! Where each scan is, as far as the mapper is concerned: the motion prior's guess and
-//! anchor, and the state [`crate::align::track_scan`] needs (the constant-velocity prediction,
-//! the recent motion, the lost streak, the loose points). The strategy itself (the ICP
-//! starts, the recovery, the window search, the verdict) lives in [`crate::align`].
+//! The speed last observed ([`ObservedSpeed`]): the motion a robot keeps along directions ICP
+//! cannot observe, and the time between scans that tells a gap in the log from jitter.
 
-use super::*;
-
-impl Mapper {
-    /// The first guess for the new scan's pose, the anchor ("no motion": the previous pose),
-    /// and the pose that directions ICP cannot observe fall back to, all map frame.
-    ///
-    /// The constant-velocity guess seeds ICP. With `keep_observed_velocity` (once a motion was
-    /// observed), the fallback is the previous pose moved by the last observed motion; a motion
-    /// taken from the prior never feeds back, so it cannot run on by itself. Otherwise the fallback keeps
-    /// `weak_direction_velocity` of the last motion (0: the previous pose). The odometry guess
-    /// is evidence of motion and is its own anchor and fallback.
-    ///
-    /// Without odometry, a scan after a gap in a log whose stamps keep time
-    /// ([`ObservedSpeed::gap_scale`]) is predicted over the gap's time: the motion per scan
-    /// times the gap, not one scan's worth; the fallback of unobservable directions (the last
-    /// observed motion, or the damped one) spans it too. After a loop correction that moved
-    /// the last two poses by different node corrections, that difference is scaled with the
-    /// step (the same holds for one scan's worth).
-    pub(super) fn guess(
-        &self,
-        odom_from_robot: Option<Pose2>,
-        stamp_s: Option<f64>,
-    ) -> (Pose2, Pose2, Pose2) {
-        let prior = self.config.mapper.motion_prior;
-        let Some(last) = self.last_pose else {
-            // The map frame: the first scan's pose, or odometry's frame when odometry is used.
-            let first = match (prior, odom_from_robot) {
-                (MotionPrior::Odometry, Some(odom)) => odom,
-                _ => Pose2::IDENTITY,
-            };
-            return (first, first, first);
-        };
-        match prior {
-            MotionPrior::Previous => (last, last, last),
-            MotionPrior::ConstantVelocity => {
-                let Some(v) = self.constant_velocity_step(stamp_s) else {
-                    return (last, last, last);
-                };
-                let predicted = last.compose(&v);
-                match self.observed.motion() {
-                    Some(m) if self.config.mapper.keep_observed_velocity => {
-                        let over_gap = scaled(&m, self.observed.gap_scale(stamp_s));
-                        (predicted, last, last.compose(&over_gap))
-                    }
-                    _ => {
-                        let f = self.config.mapper.weak_direction_velocity.clamp(0.0, 1.0);
-                        let damped =
-                            last.compose(&Pose2::new(v.x_m * f, v.y_m * f, v.theta_rad * f));
-                        (predicted, damped, damped)
-                    }
-                }
-            }
-            MotionPrior::Odometry => {
-                let g = match (self.last_odom, odom_from_robot) {
-                    (Some(a), Some(b)) => last.compose(&a.between(&b)),
-                    _ => last,
-                };
-                (g, g, g)
-            }
-        }
-    }
-
-    /// The constant-velocity step from the last pose to a scan stamped `stamp_s` (robot frame
-    /// of the last scan; over a gap's time, [`ObservedSpeed::predicted_step`]), once there are
-    /// two poses.
-    fn constant_velocity_step(&self, stamp_s: Option<f64>) -> Option<Pose2> {
-        let (prev, last) = (self.prev_pose?, self.last_pose?);
-        Some(self.observed.predicted_step(&prev.between(&last), stamp_s))
-    }
-
-    /// The log's odometry as a witness of the step to a scan whose odometry pose is
-    /// `odom_from_robot` (`tracking.odometry_witness_m`): from the previous scan, or after lost
-    /// scans from the last `ok` one; without the odometry prior, while its travel agrees with
-    /// the scans' ([`TrackingSummary::odometry_agrees_with_travel`], judged at every scan).
-    pub(super) fn odometry_witness(
-        &self,
-        odom_from_robot: Option<Pose2>,
-    ) -> Option<OdometryWitness> {
-        let on = self.config.mapper.motion_prior != MotionPrior::Odometry
-            && self.config.tracking.odometry_witness_m > 0.0
-            && self
-                .verdicts
-                .odometry_agrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M);
-        // After a lost scan, from the last `ok` pose: a lost scan's pose is its poor fit (or
-        // the anchor), and a step from it says nothing of the scan after it.
-        let (previous, from) = match self.lost_streak {
-            0 => (self.last_pose?, self.last_odom?),
-            _ => (self.last_ok.map(|(_, pose, _)| pose)?, self.last_ok_odom?),
-        };
-        let to = odom_from_robot?;
-        on.then(|| OdometryWitness {
-            previous,
-            step: from.between(&to).translation(),
-        })
-    }
-
-    /// The pose of the scan and the verdict on it, from [`crate::align::track_scan`] with the
-    /// mapper's state (and the log's odometry as a `witness` of the step); the pose is `None`
-    /// when there is nothing to align to.
-    pub(super) fn align(
-        &self,
-        scan: &PreparedScan,
-        guess: Pose2,
-        anchor: Pose2,
-        unobserved_to: Pose2,
-        witness: Option<OdometryWitness>,
-    ) -> (Option<AlignResult>, Tracking) {
-        let (reference, dt_s) = reach_reference(self.last_ok, scan.stamp_s, guess);
-        // With odometry, ICP restarts after a lost scan from the last `ok` pose moved by the
-        // odometry since then.
-        let odometry = self.config.mapper.motion_prior == MotionPrior::Odometry;
-        let last_ok = self.last_ok.map(|(_, pose, _)| pose);
-        let restart = match odometry {
-            true => moved_by_odometry(last_ok, self.last_ok_odom, scan.odom_from_robot),
-            false => None,
-        }
-        .unwrap_or(reference);
-        // As in `guess` (the odometry check compares odometry, which spans a gap, with it).
-        let constant_velocity = self
-            .last_pose
-            .zip(self.constant_velocity_step(scan.stamp_s))
-            .map(|(last, v)| last.compose(&v));
-        let input = TrackInput {
-            points_in_robot: &scan.points_in_robot,
-            segments_in_robot: &scan.segments_in_robot,
-            map: &self.map,
-            loose: &self.loose,
-            guess,
-            anchor,
-            unobserved_to,
-            reference,
-            last_ok: last_ok.unwrap_or(guess),
-            restart,
-            dt_s,
-            after_gap: !odometry && self.observed.gap_scale(scan.stamp_s) > 1.0,
-            constant_velocity,
-            recent: &self.recent,
-            lost_streak: self.lost_streak,
-            odometry_witness: witness,
-        };
-        let config = TrackConfig {
-            align: &self.config.align,
-            tracking: &self.config.tracking,
-            starts: &self.config.mapper,
-        };
-        track_scan(&input, &config)
-    }
-}
+use crate::geometry::Pose2;
 
 /// How many recent time steps give the typical one.
 const TYPICAL_DT_STEPS: usize = 15;
@@ -171,7 +22,7 @@ const IRREGULAR_STEPS_AT_MOST: usize = 1;
 
 /// A motion step `m` (robot frame) times `k`: translation and turn scaled alike (a straight
 /// extrapolation, close to the arc for the turns of a few scans).
-fn scaled(m: &Pose2, k: f64) -> Pose2 {
+pub(super) fn scaled(m: &Pose2, k: f64) -> Pose2 {
     Pose2::new(m.x_m * k, m.y_m * k, m.theta_rad * k)
 }
 
@@ -360,26 +211,6 @@ impl ObservedSpeed {
     }
 }
 
-/// The last `ok` pose `ok` (map frame) moved by the odometry from that scan's odometry pose
-/// `then` to this scan's `now` (odometry frame); `None` when any is unknown.
-fn moved_by_odometry(ok: Option<Pose2>, then: Option<Pose2>, now: Option<Pose2>) -> Option<Pose2> {
-    Some(ok?.compose(&then?.between(&now?)))
-}
-
-/// The pose a scan's motion is bounded from, and the seconds since it: the last `ok` pose is
-/// where the robot was for sure, and the time since then bounds how far it can be now, when
-/// the stamps say it (both known, increasing); otherwise `fallback` and no bound.
-fn reach_reference(
-    last_ok: Option<(u32, Pose2, Option<f64>)>,
-    stamp_s: Option<f64>,
-    fallback: Pose2,
-) -> (Pose2, Option<f64>) {
-    match (last_ok, stamp_s) {
-        (Some((_, pose, Some(a))), Some(b)) if b > a => (pose, Some(b - a)),
-        _ => (fallback, None),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -553,35 +384,14 @@ mod tests {
     }
 
     #[test]
-    fn after_a_lost_scan_odometry_moves_the_last_ok_pose() {
-        let ok = Pose2::new(1.0, 2.0, std::f64::consts::FRAC_PI_2);
-        let then = Pose2::new(10.0, 0.0, 0.0);
-        // Odometry says 0.5 m ahead since that scan: ahead of the robot, which faces +y.
-        let now = Pose2::new(10.5, 0.0, 0.0);
-        let moved = moved_by_odometry(Some(ok), Some(then), Some(now)).unwrap();
-        assert!((moved.x_m - 1.0).abs() < 1e-12 && (moved.y_m - 2.5).abs() < 1e-12);
-        assert_eq!(moved_by_odometry(Some(ok), None, Some(now)), None);
-        assert_eq!(moved_by_odometry(None, Some(then), Some(now)), None);
-    }
-
-    #[test]
-    fn the_reach_is_bounded_only_when_the_stamps_increase() {
-        let ok = Pose2::new(1.0, 2.0, 0.3);
-        let fallback = Pose2::IDENTITY;
-        let at = |stamp: Option<f64>| Some((7, ok, stamp));
-        assert_eq!(
-            reach_reference(at(Some(10.0)), Some(10.25), fallback),
-            (ok, Some(0.25))
-        );
-        // Bunched, reordered or missing stamps say nothing about the time.
-        for (last, now) in [
-            (Some(10.0), Some(10.0)),
-            (Some(10.0), Some(9.0)),
-            (None, Some(1.0)),
-            (Some(1.0), None),
-        ] {
-            assert_eq!(reach_reference(at(last), now, fallback), (fallback, None));
+    fn bunched_stamps_do_not_time_a_gap() {
+        // Every other scan 1 ms after the one before: the stamps keep no time, and a long
+        // step is no gap.
+        let bunched = |i: usize| 0.2 * (i / 2) as f64 + 0.001 * (i % 2) as f64;
+        let mut speed = ObservedSpeed::default();
+        for i in 0..40 {
+            speed.record(Some(Pose2::new(0.1, 0.0, 0.0)), true, Some(bunched(i)));
         }
-        assert_eq!(reach_reference(None, Some(1.0), fallback), (fallback, None));
+        assert_eq!(speed.gap_scale(Some(bunched(55))), 1.0);
     }
 }

@@ -1,0 +1,147 @@
+//! Poses away from the prediction: corner hypotheses, the window search's rival, and the bounds
+//! they must keep to win (the robot's reach in the stamps' time, the turn from odometry's
+//! guess, a clear margin of inliers).
+
+use super::{Attempt, best_of};
+use crate::align::{AlignMethod, AlignResult, Candidate};
+use crate::geometry::{Pose2, normalize_angle_rad};
+use crate::tracking::corner_seeds;
+use crate::tracking::params::{MotionPrior, TrackParams};
+use crate::tracking::verdict::{Tracking, Verdict, verdict};
+
+/// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
+/// far as the window search may while tracking (`tracking.odometry_max_window_deg`): its guess carries
+/// the turn, and a bad odometry turn is off by tens of degrees, not half a turn; a corridor's
+/// corners fit a scan turned half round nearly as well as the truth (Intel with odometry,
+/// every 5th scan, with 4 loop candidates per node: a pose 178° off the odometry guess took
+/// over a lost scan as `ok`, 61 of 114 points inliers against 37). Without odometry the whole
+/// circle: after a wrong turn the constant-velocity guess may be off by more than the window
+/// (ACES every 2nd scan, phase 1: a corner pose more than 90° from the guess brought the run
+/// from 0.911 to 0.424 m).
+pub(super) fn corner_turn_rad(odometry: bool, tracking: &TrackParams) -> f64 {
+    match odometry {
+        false => std::f64::consts::PI,
+        true => tracking.widest_window_deg(true).to_radians(),
+    }
+}
+
+impl Attempt<'_> {
+    /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
+    /// score above `current`'s pose; the best of them when it has `tracking.corner_win_ratio`
+    /// times `current`'s inliers (plus two), at least `tracking.search_below_inlier_share` of
+    /// the points are inliers, and no distinct pose from another hypothesis has
+    /// `tracking.corner_rival_below` of its inliers.
+    pub(super) fn icp_from_corners(&self, current: &AlignResult) -> Option<AlignResult> {
+        let input = self.input;
+        let tracking = self.config.tracking;
+        let seeds = corner_seeds(
+            input.map,
+            &input.loose.all(),
+            self.points,
+            input.segments_in_robot,
+            &input.guess,
+            Some(&current.map_from_robot),
+            tracking,
+        );
+        let all: Vec<AlignResult> = seeds
+            .iter()
+            .map(|c| self.run_near(c.map_from_robot))
+            .collect();
+        // Only a pose within the turn bound may win; any pose may veto it as a rival.
+        let best = best_of(all.iter().copied().filter(|r| {
+            self.within_turn_bound(&r.map_from_robot) && self.within_reach(&r.map_from_robot)
+        }))?;
+        // A pose away from the prediction needs more evidence than one near it: half again
+        // the inliers, a fit that would need no search, and no distinct pose nearly as good
+        // (a building of alike rooms fits a scan turned by a right angle almost as well).
+        let rival = all.iter().any(|r| {
+            tracking.apart(&best.map_from_robot, &r.map_from_robot)
+                && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
+        });
+        (self.wins_by_ratio(&best, current) && !rival).then_some(best)
+    }
+
+    /// Whether `pose` turns at most [`corner_turn_rad`] from the guess (any turn without
+    /// odometry), or from the scans' own motion where odometry disagrees with it (a stalled
+    /// wheel reads a turn the robot did not make): a pose far from the guess (a corner pose,
+    /// ICP from the search's rival) may win only within it.
+    pub(super) fn within_turn_bound(&self, pose: &Pose2) -> bool {
+        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
+        let max_turn = corner_turn_rad(odometry, self.config.tracking);
+        let from = |p: &Pose2| normalize_angle_rad(pose.theta_rad - p.theta_rad).abs();
+        let turned = match self.odometry_disagrees() {
+            Some(cv) => from(&self.input.guess).min(from(&cv)),
+            None => from(&self.input.guess),
+        };
+        turned <= max_turn
+    }
+
+    /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
+    /// (`tracking.max_speed_m_s`, `max_turn_deg_s`, plus `reach_slack_m`, `reach_slack_deg`);
+    /// true when the stamps do not say (unknown, or not increasing), and with endpoint ICP
+    /// (`--preset paper` stays as it was).
+    pub(super) fn within_reach(&self, pose: &Pose2) -> bool {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let point_to_segment = self.config.align.method == AlignMethod::PointToSegment;
+        let Some(dt) = input.dt_s.filter(|_| point_to_segment) else {
+            return true;
+        };
+        let d = input.reference.between(pose);
+        let (reach_m, reach_deg) = tracking.reach(dt);
+        d.translation().length() <= reach_m
+            && normalize_angle_rad(d.theta_rad).abs().to_degrees() <= reach_deg
+    }
+
+    /// ICP from the window search's `rival` pose, with its verdict, when that fit observes
+    /// every direction, is not `lost`, and beats `current` as a search's pose must
+    /// ([`Attempt::search_pose_wins`]).
+    pub(super) fn rival_fits_better(
+        &self,
+        rival: &Candidate,
+        current: &AlignResult,
+    ) -> Option<(AlignResult, Tracking)> {
+        let fit = self.run_near(rival.map_from_robot);
+        let judged = verdict(
+            Some(&fit),
+            self.points.len(),
+            self.input.map.is_empty(),
+            self.config.tracking,
+        );
+        // Every direction observed (by few points, maybe: FR079's true pose of the case above
+        // was `weakly_observed`, the mirror image `ok`), and no verdict of `lost`.
+        let sound = fit.weak_directions == 0 && judged.verdict != Verdict::Lost;
+        // With odometry, no further from its guess than a corner pose may turn: in a corridor
+        // the scan turned half round fits nearly as well (Intel every 5th scan on faulty
+        // odometry, phase 2, scan 2099: a lost pose on the right heading, 35 inliers, taken
+        // over by the rival turned 180°, 46; 0.06 → 1.54 m).
+        let turn = self.within_turn_bound(&fit.map_from_robot);
+        (sound && turn && self.search_pose_wins(&fit, current)).then_some((fit, judged))
+    }
+
+    /// Whether `other`, ICP from a search's pose, beats `current`: more inliers by
+    /// `tracking.search_win_margin` (plus two), within reach ([`Attempt::within_reach`]).
+    pub(super) fn search_pose_wins(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        let margin = self.config.tracking.search_win_margin;
+        other.inliers as f64 > current.inliers as f64 * (1.0 + margin) + 2.0
+            && self.within_reach(&other.map_from_robot)
+    }
+
+    /// Whether `other`, a pose away from the prediction, has `tracking.corner_win_ratio`
+    /// times `current`'s inliers (plus two) and at least `tracking.search_below_inlier_share`
+    /// of the points (the corner poses' rule).
+    pub(super) fn wins_by_ratio(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        let tracking = self.config.tracking;
+        let n = self.points.len() as f64;
+        other.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
+            && other.inliers as f64 >= tracking.search_below_inlier_share * n
+    }
+
+    /// Whether `other`, a pose away from the prediction, beats `current` clearly: it wins by
+    /// ratio ([`Attempt::wins_by_ratio`]) and observes every direction with at least
+    /// `tracking.weak_below_information`.
+    pub(super) fn wins_clearly(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        self.wins_by_ratio(other, current)
+            && other.weak_directions == 0
+            && other.translation_information.weakest >= self.config.tracking.weak_below_information
+    }
+}

@@ -1,0 +1,337 @@
+//! Where ICP starts for one scan and what it fits from there: the motion prior's guess, the
+//! anchor, the constant-velocity guess where odometry disagrees with it, the last `ok` pose
+//! after a lost scan, the best coarse rotation; the best start by soft inlier score or ICP
+//! from each; odometry's motion reversed; the recovery after a gap; ICP again without the
+//! points by a face's end that alone pin a direction.
+
+use super::{
+    Attempt, PINNED_BELOW_INFORMATION, RECOVER_TRANSLATION_M, TrackConfig, TrackInput, best_of,
+    better,
+};
+use crate::align::{
+    AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup,
+    align_endpoints, align_points_and_loose, align_points_past_ends, bounds, fit_score,
+    fit_score_above, rotation_search, score_sample,
+};
+use crate::geometry::{Pose2, Segment, Vec2};
+use crate::tracking::params::MotionPrior;
+use crate::tracking::recent::LOOSE_OFF_MAP_M;
+use crate::tracking::window::window_search;
+
+/// The recent scans' points the map's segments leave unexplained, for ICP
+/// (`tracking.icp_loose_points`; point-to-segment ICP only); `None` when there are none.
+pub(super) fn loose_targets(input: &TrackInput, config: &TrackConfig) -> Option<PointTargets> {
+    if !config.tracking.icp_loose_points || config.align.method != AlignMethod::PointToSegment {
+        return None;
+    }
+    let unexplained: Vec<Vec2> = input
+        .loose
+        .all()
+        .into_iter()
+        .filter(|p| input.map.nearest_id(*p, LOOSE_OFF_MAP_M).is_none())
+        .collect();
+    (!unexplained.is_empty()).then(|| PointTargets::new(&unexplained))
+}
+
+/// The start whose soft inlier count over a sample of the points is highest. The first start
+/// is kept unless another beats it by `margin` (soft points): along a corridor the count is
+/// nearly flat, and the first start is "no motion".
+pub(super) fn best_scoring(
+    starts: &[Pose2],
+    points: &[Vec2],
+    map: &impl SegmentLookup,
+    params: &AlignParams,
+    margin: f64,
+) -> Pose2 {
+    let sample = score_sample(points, params);
+    let first = fit_score(&sample, map, &starts[0], params);
+    let mut best = (first + margin, starts[0]);
+    for p in &starts[1..] {
+        if let Some(s) = fit_score_above(&sample, map, p, params, best.0) {
+            best = (s, *p);
+        }
+    }
+    best.1
+}
+
+/// Map segments near the scan's points placed at `pose` (within `align.initial_gate_m`), for
+/// endpoint ICP; `None` when the scan has no points.
+pub(super) fn segments_near(
+    input: &TrackInput,
+    pose: &Pose2,
+    params: &AlignParams,
+) -> Option<Vec<Segment>> {
+    let (lo, hi) = bounds(
+        input
+            .points_in_robot
+            .iter()
+            .map(|p| pose.transform_point(*p)),
+    )?;
+    let margin = Vec2::splat(params.initial_gate_m);
+    Some(
+        input
+            .map
+            .query(lo - margin, hi + margin)
+            .iter()
+            .filter_map(|id| input.map.get(*id))
+            .map(|s| s.segment)
+            .collect(),
+    )
+}
+
+impl Attempt<'_> {
+    /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
+    /// nothing to align to.
+    pub(super) fn icp_from_starts(&self) -> Option<AlignResult> {
+        let (input, params, policy) = (self.input, self.config.align, self.config.starts);
+        if input.map.is_empty() || input.points_in_robot.is_empty() {
+            return None;
+        }
+        let near = match params.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => segments_near(input, &input.guess, params)?,
+        };
+        let mut starts = self.starts();
+        if policy.icp_from_best_start_only && starts.len() > 1 {
+            let margin = policy.start_score_margin;
+            starts = vec![best_scoring(
+                &starts,
+                self.points,
+                input.map,
+                params,
+                margin,
+            )];
+        }
+        // With the odometry prior, the scans' own motion (the constant-velocity start, where
+        // odometry disagrees with it) overrules the odometry's starts only with a fit
+        // ([`Attempt::overrules_odometry`]).
+        let cv = self.odometry_disagrees();
+        let (own, others): (Vec<Pose2>, Vec<Pose2>) =
+            starts.into_iter().partition(|s| Some(*s) == cv);
+        let from_odometry = best_of(others.into_iter().map(|s| self.run(&near, s)));
+        let from_cv = best_of(own.into_iter().map(|s| self.run(&near, s)));
+        let mut result = match (from_odometry, from_cv) {
+            (Some(o), Some(c)) if !self.overrules_odometry(&c, &o) => o,
+            (o, c) => c.or(o)?,
+        };
+        // Where that fits poorly and odometry disagrees with the scans' own motion, the
+        // odometry's turn may be the fault (a stalled wheel reads its partner's distance over
+        // the wheel base as a turn): also from the best coarse rotation around the
+        // constant-velocity guess, not only around the odometry's.
+        if let Some(cv) = self
+            .odometry_disagrees()
+            .filter(|_| self.fits_poorly(&result))
+        {
+            let turned = rotation_search(self.points, input.map, cv, params);
+            if turned != cv {
+                let from_turned = self.run_near(turned);
+                if better(&from_turned, &result) {
+                    result = from_turned;
+                }
+            }
+        }
+        // Where that still fits poorly, odometry may have read the distance but not the
+        // direction of travel (FR079 backing up, every 10th scan: forward 0.79, 1.06 and
+        // 1.06 m where the robot backed 0.57, 0.79 and 1.07 m, the turns right): also from
+        // the odometry's motion reversed, which must win clearly (a corridor fits a pose a
+        // step back nearly as well).
+        if let Some(start) = self
+            .reversed_odometry()
+            .filter(|_| self.fits_poorly(&result))
+        {
+            let reversed = self.run_near(start);
+            if self.wins_clearly(&reversed, &result) {
+                result = reversed;
+            }
+        }
+        // With odometry the guess already carries the turn; a poor fit after a gap then
+        // means stale odometry, which the next increment makes good (a recovery would turn
+        // the pose and the increment would turn it again).
+        let share = policy.recover_below_inlier_share;
+        let n = self.points.len();
+        if (result.inliers as f64) >= share * n as f64
+            || policy.motion_prior == MotionPrior::Odometry
+        {
+            return Some(result);
+        }
+        let Some(recovered) = self.recover(&near) else {
+            return Some(result);
+        };
+        // Kept only when it fits well where the guess fitted badly: a turned scan that is
+        // merely less bad is likelier a coincidence of the search.
+        let fits_well = recovered.inliers as f64 >= 2.0 * share * n as f64;
+        Some(if fits_well && recovered.inliers >= 2 * result.inliers {
+            recovered
+        } else {
+            result
+        })
+    }
+
+    /// Where ICP may start, before [`MapperParams::icp_from_best_start_only`] picks one: the
+    /// guess; the anchor when they differ (a constant-velocity guess is wrong when a turn
+    /// starts, stops or reverses); the constant-velocity guess where odometry disagrees with
+    /// it; after a lost scan the last `ok` pose ([`TrackInput::restart`]: with odometry, moved
+    /// by it since then); the best coarse rotation around the guess when the robot turned
+    /// faster than ICP's basin.
+    pub(super) fn starts(&self) -> Vec<Pose2> {
+        let (input, params, policy) = (self.input, self.config.align, self.config.starts);
+        let (guess, anchor) = (input.guess, input.anchor);
+        let mut starts = vec![guess];
+        if policy.also_start_at_anchor && anchor != guess {
+            starts.insert(0, anchor);
+        }
+        // Odometry is checked against the scans' own motion: where the odometry increment and
+        // the constant-velocity one disagree (a slip, a bad turn), ICP also runs from the
+        // latter, and the better fit wins.
+        if let Some(cv) = self.odometry_disagrees() {
+            starts.push(cv);
+        }
+        // After a lost scan, whose pose is a poor fit, also from the last `ok` pose, with
+        // odometry moved by it since then (with point-to-segment ICP: `--preset paper` stays
+        // as it was, as in `within_reach`).
+        if params.method == AlignMethod::PointToSegment
+            && input.lost_streak > 0
+            && !starts.contains(&input.restart)
+        {
+            starts.push(input.restart);
+        }
+        let searched = rotation_search(self.points, input.map, guess, params);
+        if searched != guess {
+            starts.push(searched);
+        }
+        starts
+    }
+
+    /// ICP from the best pose (and its rival, if any) of a window search over the whole circle
+    /// within [`RECOVER_TRANSLATION_M`] of the anchor; the result with the most inliers.
+    /// `None` when there is no map near.
+    pub(super) fn recover(&self, near: &[Segment]) -> Option<AlignResult> {
+        let window = SearchWindow {
+            center: self.input.anchor,
+            half_xy_m: RECOVER_TRANSLATION_M,
+            half_theta_rad: std::f64::consts::PI,
+        };
+        let loose = self.input.loose.all();
+        let map = self.input.map;
+        let found = window_search(
+            map,
+            &loose,
+            self.points,
+            &window,
+            None,
+            self.config.tracking,
+        )?;
+        best_of(
+            std::iter::once(found.best)
+                .chain(found.rival()) // a second start
+                .map(|c| self.run(near, c.map_from_robot)),
+        )
+    }
+
+    /// One ICP run from `start` with the configured correspondences; `near` are the map
+    /// segments near the scan for endpoint ICP (unused by point-to-segment ICP).
+    pub(super) fn run(&self, near: &[Segment], start: Pose2) -> AlignResult {
+        let (input, params) = (self.input, self.config.align);
+        let anchor = input.unobserved_to;
+        match params.method {
+            AlignMethod::PointToSegment => {
+                align_points_and_loose(self.points, input.map, self.targets, start, anchor, params)
+            }
+            AlignMethod::Endpoints => align_endpoints(
+                input.segments_in_robot,
+                input.map,
+                near,
+                start,
+                anchor,
+                params,
+            ),
+        }
+    }
+
+    /// One ICP run from a pose far from the guess: [`Attempt::run`] with the map segments near
+    /// `start` for endpoint ICP.
+    pub(super) fn run_near(&self, start: Pose2) -> AlignResult {
+        let near = match self.config.align.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => {
+                segments_near(self.input, &start, self.config.align).unwrap_or_default()
+            }
+        };
+        self.run(&near, start)
+    }
+
+    /// The constant-velocity prediction, with the odometry prior, when it differs from the
+    /// odometry guess by more than `tracking.odometry_check_m` or `odometry_check_deg`.
+    pub(super) fn odometry_disagrees(&self) -> Option<Pose2> {
+        if self.config.starts.motion_prior != MotionPrior::Odometry {
+            return None;
+        }
+        let cv = self.input.constant_velocity?;
+        let d = self.input.guess.between(&cv);
+        let t = self.config.tracking;
+        (d.translation().length() > t.odometry_check_m
+            || d.theta_rad.abs().to_degrees() > t.odometry_check_deg)
+            .then_some(cv)
+    }
+
+    /// With the odometry prior (`tracking.reversed_odometry`), the last `ok` pose
+    /// ([`TrackInput::last_ok`]) moved by the odometry's motion since then (to
+    /// [`TrackInput::restart`]) with its translation reversed and its turn kept; `None` for a
+    /// motion under `tracking.search_above_step_m` (ICP's basin covers it reversed).
+    pub(super) fn reversed_odometry(&self) -> Option<Pose2> {
+        let (input, tracking) = (self.input, self.config.tracking);
+        let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
+        if !(odometry && tracking.reversed_odometry) {
+            return None;
+        }
+        let d = input.last_ok.between(&input.restart);
+        (d.translation().length() >= tracking.search_above_step_m).then(|| {
+            input
+                .last_ok
+                .compose(&Pose2::new(-d.x_m, -d.y_m, d.theta_rad))
+        })
+    }
+
+    /// Whether ICP from the scans' own motion (`from_cv`) overrules ICP from the odometry's
+    /// starts (`from_odometry`): it fits better ([`better`]) and at least
+    /// `tracking.search_below_inlier_share` of the points. Where both fit poorly, a few more
+    /// inliers are no evidence against odometry (ACES with odometry every 10th scan: turns
+    /// odometry read right, 41° and −87°, taken 23° and 95° off from the constant-velocity
+    /// start at 50 % and 44 % of the points; the maps 7.7 and 17.3 m off the dense run).
+    pub(super) fn overrules_odometry(
+        &self,
+        from_cv: &AlignResult,
+        from_odometry: &AlignResult,
+    ) -> bool {
+        better(from_cv, from_odometry) && !self.fits_poorly(from_cv)
+    }
+
+    /// Where ICP observed a direction by about one point only (weakest information under
+    /// [`PINNED_BELOW_INFORMATION`], every direction above the solver's threshold), ICP again
+    /// from its pose without the points that beams running along a segment put by its end
+    /// ([`align_points_past_ends`]); its pose when that leaves the direction unobservable (put
+    /// on the fallback, `TrackInput::unobserved_to`): the one point was such a point, which
+    /// moves with the robot and would hold it still (the simulated ring: a side beam by the end
+    /// of a box's face held a robot for 150 scans while it drove 7.5 m on). Point-to-segment ICP
+    /// only.
+    pub(super) fn unpinned(&self, result: &AlignResult) -> Option<AlignResult> {
+        let (input, params) = (self.input, self.config.align);
+        let info = result.translation_information.weakest;
+        let pinned = params.method == AlignMethod::PointToSegment
+            && result.weak_directions == 0
+            && info > 0.0
+            && info < PINNED_BELOW_INFORMATION;
+        if !pinned {
+            return None;
+        }
+        let free = align_points_past_ends(
+            self.points,
+            input.map,
+            self.targets,
+            result.map_from_robot,
+            input.unobserved_to,
+            params,
+        );
+        (free.weak_directions > 0 && free.weak_directions < 3).then_some(free)
+    }
+}
