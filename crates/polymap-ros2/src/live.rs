@@ -375,9 +375,12 @@ mod tests {
         q.push(scan(6.0), Instant::now());
         assert_eq!(
             q.received().dropped,
-            5,
-            "a plain push keeps the plain bound"
+            2,
+            "a plain push does not grow it further"
         );
+        q.close();
+        let mut source = LiveSource::new(Arc::clone(&q), "/scan", RayStore::new(10));
+        assert_eq!(std::iter::from_fn(|| source.next_scan()).count(), 5);
     }
 
     #[test]

@@ -11,6 +11,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
+use polymap_io::log::{LogOptions, LogSource};
+use polymap_io::ros::mcap_file::McapCompression;
+use polymap_io::ros::write_mcap;
 use serde_json::Value;
 
 use crate::support::{polymap, text};
@@ -473,4 +476,57 @@ fn a_node_killed_mid_run_leaves_its_last_periodic_save_whole() {
         "50",
     ]);
     assert!(o.status.success(), "{}", text(&o));
+}
+
+#[test]
+fn the_real_hokuyo_bag_played_at_five_times_real_time_maps_as_the_bag_does() {
+    let Some(datasets) = crate::support::datasets() else {
+        eprintln!("SKIPPED: ../shared/datasets is absent");
+        return;
+    };
+    if !peer_available() {
+        return;
+    }
+    let bag = datasets.join("ros/laser-only-hokuyo.bag");
+    let dir = tempfile::tempdir().unwrap();
+    // The bag's damaged index stops Python's rosbags; the peer plays its scans from an MCAP
+    // file written by polymap's own reader (all 360 scans, as recorded).
+    let mcap = dir.path().join("hokuyo.mcap");
+    let mut source = LogSource::open(&bag, &LogOptions::default()).unwrap();
+    let mut scans = Vec::new();
+    while let Some(scan) = source.next_scan().unwrap() {
+        scans.push(scan);
+    }
+    assert_eq!(scans.len(), 360);
+    write_mcap(&mcap, &scans, McapCompression::None).unwrap();
+    let live = dir.path().join("live");
+    let node = start_node(117, &live, &["--queue", "10000"]);
+    let got = run_peer(
+        117,
+        dir.path(),
+        &["--recording", mcap.to_str().unwrap(), "--rate", "5"],
+    );
+    let o = stop_node(node, "INT");
+    assert!(o.status.success(), "{}", text(&o));
+    let sent = got["sent_scans"].as_u64().unwrap();
+    assert_eq!(sent, 360);
+    assert_eq!(got["counts"]["pose"].as_u64().unwrap(), sent);
+    // The bag has no tf: the laser's frame is the robot's, said once.
+    assert_eq!(node_tf_edges(&got), ["map->laser"]);
+    let offline = dir.path().join("offline");
+    let n = sent.to_string();
+    let o = polymap(&[
+        "map",
+        bag.to_str().unwrap(),
+        "-o",
+        offline.to_str().unwrap(),
+        "-q",
+        "--max-scans",
+        &n,
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(
+        std::fs::read_to_string(live.join("trajectory.tum")).unwrap(),
+        std::fs::read_to_string(offline.join("trajectory.tum")).unwrap()
+    );
 }

@@ -257,6 +257,7 @@ def main():
     ap.add_argument("--recording")
     ap.add_argument("--out", required=True)
     ap.add_argument("--rate", type=float, default=1.0, help="times real time")
+    ap.add_argument("--scan-hz", type=float, help="instead of --rate: scans evenly at this rate")
     ap.add_argument("--scan-topic", default="/scan")
     ap.add_argument("--odom-topic", default="/odom")
     ap.add_argument("--no-odometry", action="store_true", help="do not play the odometry topic")
@@ -302,7 +303,10 @@ def main():
         start_stamp = stamps[0] if stamps else 0.0
         sent = 0
         for t, kind, msg in stream:
-            due = start_wall + (max(t, start_stamp) - start_stamp) / a.rate
+            if a.scan_hz:
+                due = start_wall + sent / a.scan_hz
+            else:
+                due = start_wall + (max(t, start_stamp) - start_stamp) / a.rate
             delay = due - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
