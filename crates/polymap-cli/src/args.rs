@@ -49,8 +49,9 @@ pub struct Ros2Args {
     /// witness of the tracked steps; its frame becomes `odom`, its child frame the base).
     #[arg(long)]
     pub odom_topic: Option<String>,
-    /// Start each scan's alignment from the odometry's step, as `polymap map --odometry`.
-    #[arg(long, requires = "odom_topic")]
+    /// Start each scan's alignment from the odometry's step, as `polymap map --odometry`: the
+    /// odometry of --odom-topic, else tf `odom → base`.
+    #[arg(long)]
     pub odometry: bool,
     /// The global frame published.
     #[arg(long, default_value = "map")]
@@ -87,10 +88,11 @@ pub struct Ros2Args {
     /// With --resume or --localize: where the robot starts in the saved map, `x,y,yaw`.
     #[arg(long, value_name = "X,Y,YAW", value_parser = parse_pose, allow_hyphen_values = true)]
     pub initial_pose: Option<polymap::geometry::Pose2>,
-    /// Also write these formats (comma-separated): png, html, pgm, dxf.
+    /// Also write these formats (comma-separated): png, html, dxf (the occupancy grid is
+    /// `/map`).
     #[arg(long, value_delimiter = ',')]
     pub export: Vec<polymap_export::formats::Format>,
-    /// Cell size of /map and the pgm occupancy grid, metres.
+    /// Cell size of /map, metres.
     #[arg(long, default_value_t = 0.05, value_parser = parse_resolution)]
     pub resolution: f64,
     /// Also write per-scan diagnostics to DIR/diagnostics.jsonl.

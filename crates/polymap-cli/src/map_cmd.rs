@@ -440,14 +440,22 @@ fn map_source(
             l.on_scan(e);
             stamps.push(e.stamp.clone());
             if l.save_due() {
+                // A save that fails (a full disk) is said and mapping goes on: the next save,
+                // or the one at the end, may succeed.
                 let saved_at = Instant::now();
-                checkpoint(log, config, a, folder, e, &stamps, saved)?;
-                eprintln!(
-                    "polymap: saved the {} scans mapped so far in {} ({:.0} ms)",
-                    stamps.len(),
-                    folder.path().display(),
-                    saved_at.elapsed().as_secs_f64() * 1e3
-                );
+                match checkpoint(log, config, a, folder, e, &stamps, saved) {
+                    Ok(()) if !a.quiet => eprintln!(
+                        "polymap: saved the {} scans mapped so far in {} ({:.0} ms)",
+                        stamps.len(),
+                        folder.path().display(),
+                        saved_at.elapsed().as_secs_f64() * 1e3
+                    ),
+                    Ok(()) => {}
+                    Err(err) => eprintln!(
+                        "polymap: warning: the periodic save in {} failed: {err:#}",
+                        folder.path().display()
+                    ),
+                }
             }
         }
         if let Some(w) = diag.as_mut() {

@@ -89,6 +89,14 @@ impl Live for NodeRun {
 
 /// `polymap ros2`.
 pub fn run(a: &Ros2Args) -> Result<()> {
+    // map.pgm needs every scan's rays kept for the whole run (about 1.6 GB an hour at 40 Hz);
+    // the node's grid keeps a bounded set and publishes it as /map.
+    anyhow::ensure!(
+        !a.export.contains(&polymap_export::formats::Format::Pgm),
+        "--export pgm is not for a live run, which would keep every scan's rays: the occupancy \
+         grid is published on /map (save it with Nav2's map_saver), or run `polymap map` on a \
+         recording of the run"
+    );
     let (settings, warnings) = DdsSettings::from_env()?;
     for w in warnings {
         eprintln!("polymap: warning: {w}");

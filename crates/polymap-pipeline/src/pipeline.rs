@@ -169,7 +169,14 @@ where
 {
     let start = Instant::now();
     let batch = if options.stream { 1 } else { READ_AHEAD_SCANS };
-    let (tx, rx) = std::sync::mpsc::sync_channel(READ_AHEAD_BATCHES);
+    // A stream's scans wait in the source (a live source bounds and drops them there), not
+    // here: one scan in hand-over, one being prepared.
+    let in_flight = if options.stream {
+        1
+    } else {
+        READ_AHEAD_BATCHES
+    };
+    let (tx, rx) = std::sync::mpsc::sync_channel(in_flight);
     let reading = {
         let config = config.clone();
         let pick = Pick {

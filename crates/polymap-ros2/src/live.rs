@@ -14,6 +14,11 @@ use polymap_io::log::{LiveScans, LogStats};
 const ODOMETRY_KEPT: usize = 4096;
 /// Bad messages whose errors are kept for the run's report.
 const ERRORS_KEPT: usize = 5;
+/// Distinct warnings kept, at most (a stream of bad transforms words each differently).
+pub const MAX_WARNINGS: usize = 20;
+/// How long a scan waits, from its arrival, for an odometry message stamped at or after it, so
+/// that its odometry is interpolated as a recording's is rather than held at the last one.
+pub const ODOMETRY_WAIT: std::time::Duration = std::time::Duration::from_millis(20);
 
 /// A scan received, with when it arrived.
 #[derive(Debug, Clone)]
@@ -45,6 +50,8 @@ pub struct Received {
     pub no_return_readings: u64,
     /// Things the user should know (a scan frame missing from tf, say), each once.
     pub warnings: Vec<String>,
+    /// Warnings beyond [`MAX_WARNINGS`], not kept.
+    pub warnings_left_out: u64,
 }
 
 #[derive(Debug, Default)]
@@ -55,6 +62,8 @@ struct State {
     received: Received,
     /// Arrival times of the scans handed over and not yet claimed by [`ScanQueue::claim_arrival`].
     handed: VecDeque<Instant>,
+    /// Held-back scans beyond the capacity still queued (they raise the bound while they last).
+    held_queued: usize,
     closed: bool,
 }
 
@@ -70,7 +79,8 @@ pub struct ScanQueue {
 
 impl ScanQueue {
     /// A queue holding at most `capacity` scans (at least 1); with `attach_odometry`, each
-    /// scan handed over carries the odometry pose at its stamp (interpolated, or the nearest).
+    /// scan handed over carries the odometry pose at its stamp (interpolated, or the nearest;
+    /// a scan newer than every odometry message waits up to [`ODOMETRY_WAIT`] for the next).
     pub fn new(capacity: usize, attach_odometry: bool) -> Arc<ScanQueue> {
         Arc::new(ScanQueue {
             state: Mutex::new(State::default()),
@@ -85,29 +95,37 @@ impl ScanQueue {
         self.state.lock().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Queues a scan, dropping the oldest waiting one when full. Returns false once closed.
+    /// Queues a scan, dropping the oldest waiting one when full (beyond the capacity, plus
+    /// whatever held-back scans are still queued). Returns false once closed.
     pub fn push(&self, scan: RangeScan, arrived: Instant) -> bool {
-        self.push_bounded(scan, arrived, self.capacity)
+        self.push_bounded(scan, arrived, None)
     }
 
     /// Queues a scan that was held back (waiting for tf) and is let go with others at once:
     /// the queue may then hold up to `extra` more than its capacity, so that a run's first
     /// scans are not dropped for the wait.
     pub fn push_held(&self, scan: RangeScan, arrived: Instant, extra: usize) -> bool {
-        self.push_bounded(scan, arrived, self.capacity + extra)
+        self.push_bounded(scan, arrived, Some(extra))
     }
 
-    fn push_bounded(&self, scan: RangeScan, arrived: Instant, capacity: usize) -> bool {
+    fn push_bounded(&self, scan: RangeScan, arrived: Instant, held: Option<usize>) -> bool {
         let mut s = self.lock();
         if s.closed {
             return false;
         }
         s.received.scan_messages += 1;
+        // While held-back scans are worked off, the scans arriving beside them are not dropped
+        // for them: the bound grows by the held scans still queued.
+        let capacity = self.capacity + held.unwrap_or(0).max(s.held_queued);
         if s.queue.len() >= capacity {
             s.queue.pop_front();
             s.received.dropped += 1;
         }
         s.queue.push_back(Arrived { scan, arrived });
+        if held.is_some() {
+            let beyond = s.queue.len().saturating_sub(self.capacity);
+            s.held_queued = s.held_queued.max(beyond);
+        }
         drop(s);
         self.ready.notify_one();
         true
@@ -123,10 +141,15 @@ impl ScanQueue {
         }
     }
 
-    /// Adds a warning, unless the same text was given before.
+    /// Adds a warning, unless the same text was given before or [`MAX_WARNINGS`] are kept
+    /// (the rest are counted in `warnings_left_out`). True when it was added.
     pub fn warn_once(&self, warning: String) -> bool {
         let mut s = self.lock();
         if s.received.warnings.contains(&warning) {
+            return false;
+        }
+        if s.received.warnings.len() >= MAX_WARNINGS {
+            s.received.warnings_left_out += 1;
             return false;
         }
         s.received.warnings.push(warning);
@@ -141,6 +164,8 @@ impl ScanQueue {
             s.odometry.pop_front();
         }
         s.odometry.push_back((stamp_s, odom_from_robot));
+        drop(s);
+        self.ready.notify_all();
     }
 
     /// Ends the source: scans still queued are handed over, then `next_scan` says the end.
@@ -173,6 +198,20 @@ impl ScanQueue {
     fn pop(&self) -> Option<Arrived> {
         let mut s = self.lock();
         loop {
+            if let Some(front) = s.queue.front() {
+                // Odometry seen but none yet at or after the scan: wait a little for it.
+                let t = front.scan.stamp.seconds;
+                let behind = s.odometry.back().is_some_and(|(last, _)| *last < t);
+                let waited = front.arrived.elapsed();
+                if self.attach_odometry && behind && !s.closed && waited < ODOMETRY_WAIT {
+                    let (next, _) = self
+                        .ready
+                        .wait_timeout(s, ODOMETRY_WAIT - waited)
+                        .unwrap_or_else(|e| e.into_inner());
+                    s = next;
+                    continue;
+                }
+            }
             if let Some(mut a) = s.queue.pop_front() {
                 if self.attach_odometry {
                     a.scan.odom_from_robot = odometry_at(&s.odometry, a.scan.stamp.seconds);
@@ -184,6 +223,7 @@ impl ScanQueue {
                     .filter(|&&r| a.scan.is_valid_range(r))
                     .count() as u64;
                 s.received.scans += 1;
+                s.held_queued = s.held_queued.saturating_sub(1);
                 s.received.valid_readings += valid;
                 s.received.no_return_readings += a.scan.ranges_m.len() as u64 - valid;
                 s.handed.push_back(a.arrived);
@@ -245,6 +285,12 @@ impl LiveScans for LiveSource {
     fn stats(&self) -> LogStats {
         let r = self.queue.received();
         let mut warnings = r.warnings.clone();
+        if r.warnings_left_out > 0 {
+            warnings.push(format!(
+                "{} more warnings were left out",
+                r.warnings_left_out
+            ));
+        }
         if r.dropped > 0 {
             warnings.push(format!(
                 "{} of {} scans arrived while the queue was full and were dropped (the oldest \
@@ -381,6 +427,23 @@ mod tests {
         q.close();
         let mut source = LiveSource::new(Arc::clone(&q), "/scan", RayStore::new(10));
         assert_eq!(std::iter::from_fn(|| source.next_scan()).count(), 5);
+        // As the held scans are worked off, the bound comes back to the capacity.
+        let q = ScanQueue::new(2, false);
+        for t in 0..4 {
+            q.push_held(scan(f64::from(t)), Instant::now(), 10);
+        }
+        let mut source = LiveSource::new(Arc::clone(&q), "/scan", RayStore::new(10));
+        for _ in 0..4 {
+            source.next_scan();
+        }
+        for t in 4..8 {
+            q.push(scan(f64::from(t)), Instant::now());
+        }
+        assert_eq!(
+            q.received().dropped,
+            2,
+            "the plain bound again once they are gone"
+        );
     }
 
     #[test]
@@ -428,6 +491,37 @@ mod tests {
             (b.x_m - 1.0).abs() < 1e-12,
             "the latest pose after the last message"
         );
+    }
+
+    #[test]
+    fn a_scan_newer_than_the_odometry_waits_for_the_next_message() {
+        let q = ScanQueue::new(8, true);
+        q.odometry(1.0, Pose2::new(0.0, 0.0, 0.0));
+        q.push(scan(1.5), Instant::now());
+        let odometer = {
+            let q = Arc::clone(&q);
+            std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(2));
+                q.odometry(2.0, Pose2::new(1.0, 0.0, 0.0));
+            })
+        };
+        let mut source = LiveSource::new(Arc::clone(&q), "/scan", RayStore::new(10));
+        let p = source.next_scan().unwrap().odom_from_robot.unwrap();
+        odometer.join().unwrap();
+        // Interpolated (0.5) when the message came within the wait; held (0.0) otherwise,
+        // which a loaded machine may cause: never anything else.
+        assert!(p.x_m == 0.5 || p.x_m == 0.0, "{p:?}");
+    }
+
+    #[test]
+    fn warnings_are_kept_up_to_their_bound_and_the_rest_counted() {
+        let q = ScanQueue::new(8, false);
+        for i in 0..(MAX_WARNINGS + 3) {
+            q.warn_once(format!("warning {i}"));
+        }
+        assert!(!q.warn_once("warning 0".into()));
+        let r = q.received();
+        assert_eq!((r.warnings.len(), r.warnings_left_out), (MAX_WARNINGS, 3));
     }
 
     #[test]

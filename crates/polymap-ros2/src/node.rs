@@ -179,8 +179,9 @@ struct Frames {
     scan: Option<String>,
     /// The odometry's `header.frame_id` and `child_frame_id`.
     odom: Option<(String, String)>,
-    /// The robot's frame tf placed the scans in.
-    base: Option<String>,
+    /// The robot's frame the poses are of, once the scans' frame is decided: the base frame
+    /// tf placed the laser on, else the scans' own frame.
+    robot: Option<String>,
 }
 
 /// The ROS 2 node: subscriptions on a thread of their own, publishers driven by the run.
@@ -206,6 +207,8 @@ pub struct Ros2Node {
     loop_closures: usize,
     latencies: Vec<Duration>,
     publish_failures: Arc<AtomicU64>,
+    /// The last scan's stamp (the final map's).
+    last_time: Option<Time>,
 }
 
 /// What the node measured over its run.
@@ -228,7 +231,9 @@ impl Ros2Node {
         let mut node = context
             .new_node(name, RclOptions::new().enable_rosout(false))
             .map_err(|e| setup("node")(format!("{e:?}")))?;
-        let queue = ScanQueue::new(options.queue_scans, options.odometry);
+        // Odometry rides with every scan, as a recording's does: with `--odometry` it starts
+        // the alignment, without it witnesses the step.
+        let queue = ScanQueue::new(options.queue_scans, true);
         let rays = RayStore::new(options.grid_ray_scans);
         let frames = Arc::new(Mutex::new(Frames::default()));
         let scans = subscription::<LaserScan>(
@@ -247,7 +252,11 @@ impl Ros2Node {
             subscription::<TfMessage>(&mut node, "/tf_static", tf_qos(Durability::TransientLocal))?;
         let pose = publisher(&mut node, "pose", reliable_qos(10))?;
         let tf = publisher(&mut node, "/tf", reliable_qos(100))?;
-        let markers = publisher(&mut node, "polymap/segments", latched_qos())?;
+        let markers = publisher(
+            &mut node,
+            "polymap/segments",
+            latched_qos().reliability_reliable(WhenFull::Fail),
+        )?;
         let status_pub = publisher(&mut node, "polymap/status", reliable_qos(10))?;
         let map = publisher(&mut node, "map", latched_qos())?;
         let publish_failures = Arc::new(AtomicU64::new(0));
@@ -298,6 +307,7 @@ impl Ros2Node {
             loop_closures: 0,
             latencies: Vec::new(),
             publish_failures,
+            last_time: None,
         })
     }
 
@@ -332,12 +342,15 @@ impl Ros2Node {
             .unwrap_or_else(|e| e.into_inner())
             .clone();
         let map_frame = self.options.map_frame.clone();
-        let base = self
-            .options
-            .base_frame
+        self.last_time = Some(time);
+        // A run on a saved map says nothing of where the robot is until it is placed.
+        if !mapper.placed() {
+            self.after_pose(time, update, mapper);
+            return;
+        }
+        let base = frames
+            .robot
             .clone()
-            .or_else(|| frames.odom.as_ref().map(|(_, child)| child.clone()))
-            .or(frames.base.clone())
             .or(frames.scan.clone())
             .unwrap_or_else(|| "base_link".into());
         let map_from_base = update.map_from_robot;
@@ -354,10 +367,12 @@ impl Ros2Node {
                 .map(|odom_from_base| (odom_frame.clone(), odom_from_base))
         });
         let tf = match odom {
+            // Dated ahead, as slam_toolbox does: map → odom holds until the next scan, and a
+            // consumer looking up the chain at "now" finds it.
             Some((odom_frame, odom_from_base)) => tf_message(
                 &map_frame,
                 &odom_frame,
-                time,
+                ahead(time, TRANSFORM_AHEAD),
                 &map_from_base.compose(&odom_from_base.inverse()),
             ),
             None => tf_message(&map_frame, &base, time, &map_from_base),
@@ -443,11 +458,7 @@ impl Ros2Node {
         if let Some(h) = self.receiver.take() {
             let _ = h.join();
         }
-        let time = mapper
-            .trajectory()
-            .last()
-            .map(|_| self.status_time())
-            .unwrap_or_default();
+        let time = self.last_time.unwrap_or_default();
         if self.map_dirty {
             self.publish_map(time, mapper);
         }
@@ -458,15 +469,18 @@ impl Ros2Node {
             grids_published: grids,
         }
     }
+}
 
-    fn status_time(&self) -> Time {
-        let d = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .unwrap_or_default();
-        Time {
-            sec: i32::try_from(d.as_secs()).unwrap_or(i32::MAX),
-            nanosec: d.subsec_nanos(),
-        }
+/// How far ahead of its scan map → odom is dated, as slam_toolbox's `transform_timeout`.
+const TRANSFORM_AHEAD: Duration = Duration::from_millis(200);
+
+/// `t` moved `by` later.
+fn ahead(t: Time, by: Duration) -> Time {
+    let nanos = u64::from(t.nanosec) + u64::from(by.subsec_nanos());
+    let sec = i64::from(t.sec) + by.as_secs() as i64 + (nanos / 1_000_000_000) as i64;
+    Time {
+        sec: i32::try_from(sec).unwrap_or(i32::MAX),
+        nanosec: (nanos % 1_000_000_000) as u32,
     }
 }
 
@@ -570,6 +584,14 @@ impl Receiving {
                 self.check_writers();
                 self.checked_writers = Some(Instant::now());
             }
+        }
+        if !self.waiting.is_empty() {
+            let n = self.waiting.len();
+            self.waiting.clear();
+            self.queue.bad_message(format!(
+                "{}: {n} scan(s) still waiting for tf when the node stopped were not mapped",
+                self.topic
+            ));
         }
     }
 
@@ -677,7 +699,6 @@ impl Receiving {
                 .map(str::to_owned),
         };
         if let Some(b) = found {
-            self.frames.lock().unwrap_or_else(|e| e.into_inner()).base = Some(b.clone());
             self.base = Some(b);
         }
     }
@@ -745,6 +766,15 @@ impl Receiving {
         }
     }
 
+    /// Records the robot's frame, the one the poses are of, when the first scan frame is
+    /// decided.
+    fn decided(&self, robot: String) {
+        let mut f = self.frames.lock().unwrap_or_else(|e| e.into_inner());
+        if f.robot.is_none() {
+            f.robot = Some(robot);
+        }
+    }
+
     /// Hands over the scans waiting for tf once their frame is decided.
     fn release_waiting(&mut self) {
         while let Some((_, frame, stamp, arrived)) = self.waiting.front() {
@@ -752,6 +782,8 @@ impl Receiving {
                 match self.lookup_mount(frame, stamp) {
                     Ok(mount) => {
                         self.mounts.insert(frame.clone(), Some(mount));
+                        let robot = self.base.clone();
+                        self.decided(robot.unwrap_or_else(|| frame_name(frame).to_owned()));
                     }
                     Err(problem) if arrived.elapsed() >= TF_WAIT => {
                         let warning = format!(
@@ -762,6 +794,7 @@ impl Receiving {
                             eprintln!("polymap: warning: {warning}");
                         }
                         self.mounts.insert(frame.clone(), None);
+                        self.decided(frame_name(frame).to_owned());
                     }
                     Err(_) => return,
                 }
@@ -778,6 +811,20 @@ impl Receiving {
         loop {
             match sub.take() {
                 Ok(Some((msg, _))) => {
+                    let p = &msg.pose.pose;
+                    let q = p.orientation;
+                    let finite = [p.position.x, p.position.y, q.x, q.y, q.z, q.w]
+                        .iter()
+                        .all(|v| v.is_finite())
+                        && (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w) > 0.5;
+                    if !finite {
+                        self.queue.warn_once(format!(
+                            "odometry messages with a non-finite pose or a zero quaternion \
+                             are skipped (first at {}.{:09})",
+                            msg.header.stamp.sec, msg.header.stamp.nanosec
+                        ));
+                        continue;
+                    }
                     let stamp = Stamp::from_seconds(
                         f64::from(msg.header.stamp.sec)
                             + f64::from(msg.header.stamp.nanosec) * 1e-9,

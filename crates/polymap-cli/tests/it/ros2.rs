@@ -24,6 +24,13 @@ const CYCLONE_LOOPBACK: &str = "<CycloneDDS><Domain id=\"any\"><General><Interfa
     </MaxAutoParticipantIndex><Peers><Peer address=\"127.0.0.1\"/></Peers></Discovery></Domain>\
     </CycloneDDS>";
 
+/// The DDS domain of test `k` (0..7): apart for each test, and for each test process, within
+/// 0 to 101, whose ports Linux keeps out of its ephemeral range.
+fn domain(k: u16) -> u16 {
+    let slot = (std::process::id() % 13) as u16;
+    10 + slot * 7 + k
+}
+
 fn peer_script() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/ros2/ros2_peer.py")
 }
@@ -87,17 +94,31 @@ fn run_peer(domain: u16, dir: &Path, args: &[&str]) -> Value {
     serde_json::from_slice(&std::fs::read(&out).unwrap()).unwrap()
 }
 
-/// Sends `signal` (`INT`, `TERM`) to the node and waits for it to end.
-fn stop_node(child: Child, signal: &str) -> Output {
+/// Sends `signal` (`INT`, `TERM`) to the node and waits for it to end (killed, and the test
+/// failed, after two minutes).
+fn stop_node(mut child: Child, signal: &str) -> Output {
     let status = Command::new("kill")
         .args([&format!("-{signal}"), &child.id().to_string()])
         .status()
         .expect("kill runs");
     assert!(status.success());
     let deadline = Instant::now() + Duration::from_secs(120);
-    let output = child.wait_with_output().expect("the node ends");
-    assert!(Instant::now() < deadline);
-    output
+    while child
+        .try_wait()
+        .expect("the node can be waited for")
+        .is_none()
+    {
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("the node did not end within two minutes of SIG{signal}");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    child.wait_with_output().expect("the node's output")
+}
+
+fn summary(out: &Path) -> Value {
+    serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap()
 }
 
 /// The tf edges the node published (the peer hears its own `odom → base_link` too).
@@ -111,10 +132,6 @@ fn node_tf_edges(got: &Value) -> Vec<String> {
         .collect()
 }
 
-fn summary(out: &Path) -> Value {
-    serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap()
-}
-
 #[test]
 fn a_recording_played_live_maps_as_the_recording_does_and_every_output_arrives() {
     if !peer_available() {
@@ -125,7 +142,7 @@ fn a_recording_played_live_maps_as_the_recording_does_and_every_output_arrives()
     let live = dir.path().join("live");
     // A queue that never fills, so that no scan is dropped however loaded the machine is.
     let node = start_node(
-        111,
+        domain(0),
         &live,
         &[
             "--odom-topic",
@@ -137,7 +154,7 @@ fn a_recording_played_live_maps_as_the_recording_does_and_every_output_arrives()
         ],
     );
     let got = run_peer(
-        111,
+        domain(0),
         dir.path(),
         &[
             "--recording",
@@ -241,9 +258,9 @@ fn the_node_outlives_a_publisher_that_goes_and_comes_back_and_a_wrong_type_on_it
     let dir = tempfile::tempdir().unwrap();
     let mcap = recording(dir.path(), "hallway45");
     let live = dir.path().join("live");
-    let node = start_node(112, &live, &[]);
+    let node = start_node(domain(1), &live, &[]);
     let got = run_peer(
-        112,
+        domain(1),
         dir.path(),
         &[
             "--recording",
@@ -309,9 +326,9 @@ fn a_node_stopped_while_scans_stream_saves_every_scan_it_took_and_no_cut_file() 
     let dir = tempfile::tempdir().unwrap();
     let mcap = recording(dir.path(), "hallway45");
     let live = dir.path().join("live");
-    let node = start_node(113, &live, &[]);
+    let node = start_node(domain(2), &live, &[]);
     let mut peer = peer_command(
-        113,
+        domain(2),
         &dir.path().join("peer.json"),
         &[
             "--recording",
@@ -363,7 +380,10 @@ fn the_node_localizes_in_and_continues_a_saved_map_as_the_offline_commands_do() 
         "-q",
     ]);
     assert!(o.status.success(), "{}", text(&o));
-    for (domain, flag, offline_cmd) in [(114, "--localize", "localize"), (115, "--resume", "map")] {
+    for (domain, flag, offline_cmd) in [
+        (domain(3), "--localize", "localize"),
+        (domain(4), "--resume", "map"),
+    ] {
         let live = dir.path().join(format!("live{domain}"));
         let node = start_node(domain, &live, &[flag, saved.to_str().unwrap()]);
         let got = run_peer(
@@ -381,7 +401,9 @@ fn the_node_localizes_in_and_continues_a_saved_map_as_the_offline_commands_do() 
         );
         let o = stop_node(node, "INT");
         assert!(o.status.success(), "{flag}: {}", text(&o));
-        assert_eq!(got["counts"]["pose"], 200, "{flag}");
+        // No pose is published before the run is placed in the saved map (a few scans).
+        let poses = got["counts"]["pose"].as_u64().unwrap();
+        assert!((190..=200).contains(&poses), "{flag}: {poses} poses");
         let offline = dir.path().join(format!("offline{domain}"));
         let mut args = vec![
             offline_cmd,
@@ -414,9 +436,9 @@ fn a_node_killed_mid_run_leaves_its_last_periodic_save_whole() {
     let dir = tempfile::tempdir().unwrap();
     let mcap = recording(dir.path(), "hallway45");
     let live = dir.path().join("live");
-    let mut node = start_node(116, &live, &["--save-period", "1"]);
+    let mut node = start_node(domain(5), &live, &["--save-period", "1"]);
     let mut peer = peer_command(
-        116,
+        domain(5),
         &dir.path().join("peer.json"),
         &[
             "--recording",
@@ -500,9 +522,9 @@ fn the_real_hokuyo_bag_played_at_five_times_real_time_maps_as_the_bag_does() {
     assert_eq!(scans.len(), 360);
     write_mcap(&mcap, &scans, McapCompression::None).unwrap();
     let live = dir.path().join("live");
-    let node = start_node(117, &live, &["--queue", "10000"]);
+    let node = start_node(domain(6), &live, &["--queue", "10000"]);
     let got = run_peer(
-        117,
+        domain(6),
         dir.path(),
         &["--recording", mcap.to_str().unwrap(), "--rate", "5"],
     );

@@ -293,6 +293,12 @@ def main():
             ),
         )
         result["matched"] = wait_matched(scans, a.wait_node_s)
+        # ...and the node's pose and tf writers joined to our readers, so none is missed.
+        end = time.monotonic() + a.wait_node_s
+        while time.monotonic() < end and not all(
+            len(listener.readers[k].get_matched_publications()) > 0 for k in ("pose", "tf")
+        ):
+            time.sleep(0.01)
         wrong = None
         if a.wrong_type:
             # Another participant publishes std_msgs/String on the scan topic's very name.
