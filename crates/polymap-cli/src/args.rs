@@ -134,9 +134,25 @@ pub struct MergeArgs {
     /// rival, overlap), map.svg.
     #[arg(short, long)]
     pub output: PathBuf,
+    /// How B is laid onto A: `auto` (one rigid transform when it fits, else B bent onto A by
+    /// a joint pose graph of both maps' loop nodes), `rigid` (one transform only) or
+    /// `pose-graph` (always the joint pose graph).
+    #[arg(long, value_enum, default_value_t = MergeBy::Auto)]
+    pub by: MergeBy,
     /// Print nothing but warnings and errors.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+/// How `polymap merge` lays map B onto map A.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum MergeBy {
+    /// Rigid when the rigid match is accepted, else the joint pose graph.
+    Auto,
+    /// One rigid transform.
+    Rigid,
+    /// The joint pose graph, seeded by the rigid match.
+    PoseGraph,
 }
 
 #[derive(Debug, Args)]

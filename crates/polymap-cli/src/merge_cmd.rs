@@ -2,6 +2,11 @@
 //! segment-pair hypotheses, verified by a raster score), refuses maps that do not overlap or
 //! align ambiguously, and merges B into A by the mapper's own merge; writes `map.json` (A's
 //! frame), `merge.json` (the transform and what it rests on) and `map.svg`.
+//!
+//! When no rigid transform is accepted (each map drifted on its own), B is bent onto A by a
+//! joint pose graph of both maps' loop nodes ([`polymap::loops::joint_graph`]) seeded by the
+//! rigid match's best poses: B's segments move with their nodes, and B's trajectory so moved
+//! is written as `trajectory_b.tum`.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -13,24 +18,26 @@ use polymap::align::{
 };
 use polymap::config::Config;
 use polymap::geometry::{Pose2, Segment, Vec2};
+use polymap::loops::{CrossVerdict, JointGraph, JointParams, SavedNode, joint_graph};
 use polymap::map::{GlobalMap, MapSegment};
 use polymap::merge::{MapMergeParams, MapMergeResult, merge_map};
 use polymap::polyline::group_polylines;
 use polymap::segment_index::SegmentIndex;
 use polymap_export::svg::{SvgStyle, write_svg};
 use polymap_io::atomic::write_bytes_atomic;
+use polymap_io::loop_nodes::{LOOP_NODES_FILE, read_loop_nodes};
 use polymap_io::map_json::{MapJson, read_map_json, write_map_json};
 use polymap_io::snapshot::{MapSnapshot, Polyline};
-use polymap_io::tum::read_tum;
+use polymap_io::tum::{StampedPose, read_tum, write_tum};
 use polymap_pipeline::folder::{RunFolder, check_output_apart};
 use serde_json::json;
 
-use crate::args::MergeArgs;
+use crate::args::{MergeArgs, MergeBy};
 use crate::quote::quoted;
 
 /// The merged map's files in the output folder (removed when a merge is refused; `merge.json`
 /// is written either way).
-const MAP_FILES: [&str; 2] = ["map.json", "map.svg"];
+const MAP_FILES: [&str; 3] = ["map.json", "map.svg", "trajectory_b.tum"];
 /// Refined poses listed in `merge.json`, best first.
 const CANDIDATES_SHOWN: usize = 8;
 /// Spacing of the points sampled along B's segments for scoring and ICP, metres.
@@ -43,6 +50,10 @@ struct Input {
     segments: Vec<MapSegment>,
     /// The robot's positions from `trajectory.tum` (empty without it), map frame.
     path: Vec<Vec2>,
+    /// The robot's poses from `trajectory.tum` (empty without it), one per scan, map frame.
+    trajectory: Vec<StampedPose>,
+    /// The loop nodes of `loop_nodes.json`, when the folder has it.
+    nodes: Option<Vec<SavedNode>>,
     scans: u32,
     /// The folder's lock for reading, held until the merge is written.
     _lock: Option<polymap_pipeline::manifest::FolderLock>,
@@ -86,16 +97,79 @@ pub fn run(a: &MergeArgs) -> Result<()> {
     };
     let a_from_b = found.fixed_from_moving;
     let overlap_a = overlap_of_a(&map_a, &b_segments, &a_from_b, &params);
-    let verdict = found.verdict(&params);
-    let mut report = merge_json(a, &map_a, &map_b, &found, verdict, overlap_a, search_s);
+    let rigid_verdict = found.verdict(&params);
+    let mut report = merge_json(
+        a,
+        &map_a,
+        &map_b,
+        &found,
+        rigid_verdict,
+        overlap_a,
+        search_s,
+    );
+    report["method"] = json!("rigid");
+    let bend = match (a.by, rigid_verdict) {
+        (MergeBy::Rigid, _) | (MergeBy::Auto, MatchVerdict::Accepted) => None,
+        // A map that fits in two places is refused however it is laid.
+        (_, MatchVerdict::Ambiguous) => None,
+        _ => match (&map_a.nodes, &map_b.nodes) {
+            (Some(na), Some(nb)) if !na.is_empty() && !nb.is_empty() => {
+                let started = Instant::now();
+                let tried = by_pose_graph(&fixed, &map_b, na, nb, &found, &params, &config);
+                report["pose_graph"] = pose_graph_json(&tried, started.elapsed().as_secs_f64());
+                Some(tried)
+            }
+            _ => {
+                if a.by == MergeBy::PoseGraph {
+                    remove_stale(folder.path())?;
+                    write_json(&folder.path().join("merge.json"), &report)?;
+                    folder.finish_writing(&["merge.json"])?;
+                    bail!(
+                        "--by pose-graph needs the loop nodes of both maps: {} or {} has no \
+                         {LOOP_NODES_FILE} (written by polymap map): not merged",
+                        shown(&map_a.dir),
+                        shown(&map_b.dir)
+                    );
+                }
+                None
+            }
+        },
+    };
+    let verdict = match &bend {
+        None => rigid_verdict,
+        Some(t) => t.verdict,
+    };
+    report["verdict"] = json!(verdict);
     if verdict != MatchVerdict::Accepted {
         remove_stale(folder.path())?;
         write_json(&folder.path().join("merge.json"), &report)?;
         folder.finish_writing(&["merge.json"])?;
-        bail!("{}", refusal(&map_a, &map_b, &found, verdict, &params));
+        match &bend {
+            Some(t) => bail!("{}", bend_refusal(&map_a, &map_b, t, &found, &params)),
+            None => bail!("{}", refusal(&map_a, &map_b, &found, verdict, &params)),
+        }
     }
     let started = Instant::now();
-    let (merged, counts) = merge(&map_a, &map_b, &a_from_b, fixed, &config);
+    let bent = bend.as_ref().and_then(|t| t.best.as_ref());
+    let (b_moved, b_trajectory) = match bent {
+        Some(c) => {
+            report["method"] = json!("pose_graph");
+            report["a_from_b"] = pose_json(&c.seed);
+            (c.b_segments.clone(), c.b_trajectory.clone())
+        }
+        None => (
+            moved_rigidly(&map_b.segments, &a_from_b),
+            map_b
+                .trajectory
+                .iter()
+                .map(|p| StampedPose {
+                    stamp: p.stamp.clone(),
+                    map_from_robot: a_from_b.compose(&p.map_from_robot),
+                })
+                .collect(),
+        ),
+    };
+    let (merged, counts) = merge(&map_a, &b_moved, fixed, &config);
     let polylines = group_polylines(
         &merged.iter().map(|s| s.segment).collect::<Vec<_>>(),
         config.polyline.max_gap_m,
@@ -113,9 +187,25 @@ pub fn run(a: &MergeArgs) -> Result<()> {
         &polylines,
         &report,
     )?;
-    folder.finish_writing(&["map.json", "merge.json", "map.svg"])?;
+    let mut written = vec!["map.json", "merge.json", "map.svg"];
+    if !b_trajectory.is_empty() {
+        write_tum(folder.path().join("trajectory_b.tum"), &b_trajectory)?;
+        written.push("trajectory_b.tum");
+    } else {
+        remove_stale_file(&folder.path().join("trajectory_b.tum"))?;
+    }
+    folder.finish_writing(&written)?;
     if !a.quiet {
         summarize(&map_a, &map_b, &found, overlap_a, merged.len(), &a.output);
+        if let Some(c) = bent {
+            let (max, mean, _) = c.graph.moved();
+            say!(
+                "bent by a joint pose graph: {} cross constraints used ({} rejected), B's \
+                 nodes moved up to {max:.2} m (mean {mean:.2} m)",
+                c.graph.count(CrossVerdict::Used),
+                c.graph.cross.len() - c.graph.count(CrossVerdict::Used)
+            );
+        }
     }
     Ok(())
 }
@@ -126,7 +216,8 @@ fn read_input(dir: &Path) -> Result<Input> {
     if !dir.is_dir() {
         bail!("{}: not a folder (a polymap map output)", shown(dir));
     }
-    let lock = crate::outputs::check_run_folder(dir, &["map.json", "trajectory.tum"])?;
+    let lock =
+        crate::outputs::check_run_folder(dir, &["map.json", "trajectory.tum", LOOP_NODES_FILE])?;
     let map = read_map_json(dir.join("map.json"))?;
     let segments = map.map_segments();
     if segments.is_empty() {
@@ -135,12 +226,18 @@ fn read_input(dir: &Path) -> Result<Input> {
     let born = segments.iter().map(|s| s.born_scan).max().unwrap_or(0);
     let scans = map.scans_mapped().max(born.saturating_add(1));
     let tum = dir.join("trajectory.tum");
-    let path: Vec<Vec2> = match tum.is_file() {
-        true => read_tum(&tum)?
-            .iter()
-            .map(|p| p.map_from_robot.translation())
-            .collect(),
+    let trajectory = match tum.is_file() {
+        true => read_tum(&tum)?,
         false => Vec::new(),
+    };
+    let path: Vec<Vec2> = trajectory
+        .iter()
+        .map(|p| p.map_from_robot.translation())
+        .collect();
+    let nodes_file = dir.join(LOOP_NODES_FILE);
+    let nodes = match nodes_file.is_file() {
+        true => Some(read_loop_nodes(&nodes_file)?),
+        false => None,
     };
     Ok(Input {
         dir: dir.to_path_buf(),
@@ -148,6 +245,8 @@ fn read_input(dir: &Path) -> Result<Input> {
         segments,
         scans,
         path,
+        trajectory,
+        nodes,
         _lock: lock,
     })
 }
@@ -175,28 +274,337 @@ fn overlap_of_a(a: &Input, b: &[Segment], a_from_b: &Pose2, params: &GlobalParam
     )
 }
 
-/// B's segments in A's frame merged into A, born after A's scans.
-fn merge(
-    a: &Input,
+/// Seeds of the joint pose graph tried, at most: the rigid match's best poses.
+const MAX_SEEDS: usize = 3;
+/// A seed after the first explains at least this mean raster value of B's points.
+const SEED_MIN_RASTER: f64 = 0.15;
+/// Least cross constraints a merge by the joint pose graph keeps.
+const MIN_CROSS: usize = 5;
+/// Cross constraints listed in `merge.json`, at most (the rejected first).
+const CROSS_SHOWN: usize = 10;
+
+/// B bent onto A by the joint pose graph from one seed.
+struct Bent {
+    /// B's placement in A seeding the graph.
+    seed: Pose2,
+    graph: JointGraph,
+    /// B's segments moved with their nodes, A's frame.
+    b_segments: Vec<MapSegment>,
+    /// B's trajectory moved with its nodes, A's frame (empty without `trajectory.tum`).
+    b_trajectory: Vec<StampedPose>,
+    /// The share of B's bent walls within `inlier_m` of A's.
+    overlap: f64,
+    /// Enough cross constraints kept and enough overlap.
+    passes: bool,
+}
+
+/// The outcome of laying B onto A by the joint pose graph.
+struct Tried {
+    verdict: MatchVerdict,
+    /// Every seed tried: its pose, cross constraints used, overlap, whether it passed.
+    seeds: Vec<(Pose2, usize, f64, bool)>,
+    /// The first passing attempt in seed order, else the first attempt.
+    best: Option<Bent>,
+    /// Another passing attempt that puts B elsewhere (the merge is then ambiguous).
+    rival: Option<Pose2>,
+}
+
+/// B bent onto A by the joint pose graph from each of the rigid match's best distinct poses;
+/// accepted when one passes (see [`Bent::passes`]) and no other passing one puts B elsewhere.
+fn by_pose_graph(
+    fixed: &GlobalMap,
     b: &Input,
-    a_from_b: &Pose2,
-    mut map: GlobalMap,
+    a_nodes: &[SavedNode],
+    b_nodes: &[SavedNode],
+    found: &GlobalMatch,
+    params: &GlobalParams,
     config: &Config,
-) -> (Vec<MapSegment>, MapMergeResult) {
-    let b_in_a: Vec<MapSegment> = b
+) -> Tried {
+    let mut seeds = vec![found.fixed_from_moving];
+    for c in &found.candidates {
+        if seeds.len() >= MAX_SEEDS {
+            break;
+        }
+        if c.raster_score >= SEED_MIN_RASTER
+            && seeds.iter().all(|s| apart(s, &c.fixed_from_moving, params))
+        {
+            seeds.push(c.fixed_from_moving);
+        }
+    }
+    let mut attempts: Vec<Bent> = seeds
+        .iter()
+        .map(|seed| {
+            let graph = joint_graph(
+                a_nodes,
+                b_nodes,
+                seed,
+                &config.loops,
+                &config.align,
+                config.map.grid_cell_m,
+                &JointParams::default(),
+            );
+            let (b_segments, b_trajectory) =
+                bend_b(b, b_nodes, &graph, seed, config.loops.node_scans);
+            let bent: Vec<Segment> = b_segments.iter().map(|s| s.segment).collect();
+            let overlap = overlap_share(
+                &points_along(&bent, SAMPLE_SPACING_M),
+                fixed,
+                &Pose2::IDENTITY,
+                params.inlier_m,
+            );
+            let passes =
+                graph.count(CrossVerdict::Used) >= MIN_CROSS && overlap >= params.min_overlap;
+            Bent {
+                seed: *seed,
+                graph,
+                b_segments,
+                b_trajectory,
+                overlap,
+                passes,
+            }
+        })
+        .collect();
+    let summary = attempts
+        .iter()
+        .map(|t| {
+            (
+                t.seed,
+                t.graph.count(CrossVerdict::Used),
+                t.overlap,
+                t.passes,
+            )
+        })
+        .collect();
+    // The passing attempts first, each group in seed order (the rigid match's best first).
+    attempts.sort_by_key(|t| !t.passes);
+    let placed = |t: &Bent| t.graph.b_poses.first().copied().unwrap_or(t.seed);
+    let rival = attempts.first().filter(|t| t.passes).and_then(|best| {
+        attempts
+            .iter()
+            .skip(1)
+            .find(|t| t.passes && apart(&placed(best), &placed(t), params))
+            .map(|t| t.seed)
+    });
+    let best = attempts.into_iter().next();
+    let verdict = match (&best, rival) {
+        (Some(t), None) if t.passes => MatchVerdict::Accepted,
+        (Some(t), Some(_)) if t.passes => MatchVerdict::Ambiguous,
+        _ => MatchVerdict::NoOverlap,
+    };
+    Tried {
+        verdict,
+        seeds: summary,
+        best,
+        rival,
+    }
+}
+
+/// True when two poses are farther apart than `apart_m` or `apart_deg`.
+fn apart(a: &Pose2, b: &Pose2, params: &GlobalParams) -> bool {
+    let d = a.between(b);
+    d.translation().length() > params.apart_m || d.theta_rad.abs() > params.apart_deg.to_radians()
+}
+
+/// The first scan of each of B's nodes: the scan of B's trajectory at the node's pose (a node
+/// is posed at its first scan, both corrected alike), in order; every `node_scans`-th scan
+/// when some node is not found there (no trajectory, or nodes of an earlier run).
+fn node_starts(nodes: &[SavedNode], trajectory: &[StampedPose], node_scans: u32) -> Vec<u32> {
+    const SAME_M: f64 = 1e-5;
+    const SAME_RAD: f64 = 1e-5;
+    let mut starts = Vec::with_capacity(nodes.len());
+    let mut from = 0;
+    for n in nodes {
+        let at = trajectory.get(from..).and_then(|rest| {
+            rest.iter().position(|p| {
+                let d = p.map_from_robot.between(&n.pose);
+                d.translation().length() <= SAME_M && d.theta_rad.abs() <= SAME_RAD
+            })
+        });
+        match at {
+            Some(i) => {
+                starts.push((from + i) as u32);
+                from += i + 1;
+            }
+            None => {
+                return (0..nodes.len())
+                    .map(|k| (k as u64 * node_scans as u64).min(u32::MAX as u64) as u32)
+                    .collect();
+            }
+        }
+    }
+    starts
+}
+
+/// B's segments and trajectory in A's frame, each moved with its scan: a scan between two
+/// nodes' first scans moves by the blend of the two nodes' corrections
+/// ([`JointGraph::moved_pose`]); a segment moves with the scan it was born in.
+fn bend_b(
+    b: &Input,
+    nodes: &[SavedNode],
+    graph: &JointGraph,
+    seed: &Pose2,
+    node_scans: u32,
+) -> (Vec<MapSegment>, Vec<StampedPose>) {
+    let starts = node_starts(nodes, &b.trajectory, node_scans);
+    let node_and_share = |t: u32| {
+        let k = starts.partition_point(|&s| s <= t).saturating_sub(1);
+        let share = match (starts.get(k), starts.get(k + 1)) {
+            (Some(&s0), Some(&s1)) if s1 > s0 && t >= s0 => (t - s0) as f64 / (s1 - s0) as f64,
+            _ => 0.0,
+        };
+        (k, share)
+    };
+    // The correction (new ∘ old⁻¹, A's frame) of scan t.
+    let correction = |t: u32| -> Pose2 {
+        let (k, share) = node_and_share(t);
+        match b.trajectory.get(t as usize) {
+            Some(p) => {
+                let old = seed.compose(&p.map_from_robot);
+                graph.moved_pose(k, share, &old).compose(&old.inverse())
+            }
+            None => match (graph.b_poses.get(k), graph.b_seeded.get(k)) {
+                (Some(new), Some(old)) => new.compose(&old.inverse()),
+                _ => Pose2::IDENTITY,
+            },
+        }
+    };
+    let segments = b
         .segments
         .iter()
+        .map(|s| MapSegment {
+            segment: s
+                .segment
+                .transformed(&correction(s.born_scan).compose(seed)),
+            born_scan: s.born_scan,
+        })
+        .collect();
+    let trajectory = b
+        .trajectory
+        .iter()
+        .enumerate()
+        .map(|(t, p)| StampedPose {
+            stamp: p.stamp.clone(),
+            map_from_robot: correction(t as u32).compose(&seed.compose(&p.map_from_robot)),
+        })
+        .collect();
+    (segments, trajectory)
+}
+
+/// `merge.json`'s `pose_graph`: the seeds tried, the cross constraints, how far each map's
+/// nodes moved.
+fn pose_graph_json(t: &Tried, seconds: f64) -> serde_json::Value {
+    let seeds: Vec<serde_json::Value> = t
+        .seeds
+        .iter()
+        .map(|(seed, used, overlap, passes)| {
+            json!({"a_from_b": pose_json(seed), "cross_used": used, "overlap": overlap,
+                   "passes": passes})
+        })
+        .collect();
+    let mut out = json!({
+        "verdict": t.verdict,
+        "seeds": seeds,
+        "min_cross": MIN_CROSS,
+        "rival": t.rival.as_ref().map(pose_json),
+        "seconds": seconds,
+    });
+    let Some(best) = &t.best else {
+        return out;
+    };
+    let g = &best.graph;
+    let (max_m, mean_m, max_deg) = g.moved();
+    let mut shown: Vec<_> = g.cross.iter().collect();
+    shown.sort_by_key(|c| c.verdict == CrossVerdict::Used);
+    let shown: Vec<serde_json::Value> = shown
+        .iter()
+        .take(CROSS_SHOWN)
+        .map(|c| {
+            json!({"a_node": c.a_node, "b_node": c.b_node, "verdict": c.verdict,
+                   "residual_m": c.residual_m, "residual_deg": c.residual_deg})
+        })
+        .collect();
+    out["seed"] = pose_json(&best.seed);
+    out["overlap"] = json!(best.overlap);
+    out["moved"] = json!({
+        "a": {"max_m": 0.0, "mean_m": 0.0, "max_deg": 0.0},
+        "b": {"max_m": max_m, "mean_m": mean_m, "max_deg": max_deg},
+    });
+    out["nodes"] = json!({"b": g.b_poses.len()});
+    out["b_loop_edges"] = json!(g.b_loop_edges);
+    out["cross"] = json!({
+        "tried": g.candidates,
+        "found": g.cross.len(),
+        "used": g.count(CrossVerdict::Used),
+        "unconfirmed": g.count(CrossVerdict::Unconfirmed),
+        "residual": g.count(CrossVerdict::Residual),
+        "shown": shown,
+    });
+    out
+}
+
+/// Why the maps are not merged by the joint pose graph either, with the figures.
+fn bend_refusal(
+    a: &Input,
+    b: &Input,
+    t: &Tried,
+    found: &GlobalMatch,
+    params: &GlobalParams,
+) -> String {
+    let (a, b) = (shown(&a.dir), shown(&b.dir));
+    let (used, overlap) = t
+        .best
+        .as_ref()
+        .map_or((0, 0.0), |x| (x.graph.count(CrossVerdict::Used), x.overlap));
+    match (t.verdict, t.rival, &t.best) {
+        (MatchVerdict::Ambiguous, Some(r), Some(best)) => {
+            let d = r.between(&best.seed);
+            format!(
+                "{b} fits {a} in two places: bent by a joint pose graph of their loop nodes \
+                 from two seeds {:.1} m and {:.0}° apart, both keep enough cross constraints \
+                 and overlap: not merged (see merge.json)",
+                d.translation().length(),
+                d.theta_rad.to_degrees().abs()
+            )
+        }
+        _ => format!(
+            "{a} and {b} do not overlap: the best rigid alignment scores {:.2} (needs {:.2}) \
+             with {:.0} % of B's walls within {} m of A's (needs {:.0} %), and bent by a joint \
+             pose graph of their loop nodes ({} seeds) B keeps {used} cross constraints (needs \
+             {MIN_CROSS}) with {:.0} % of its walls near A's: not merged (see merge.json)",
+            found.best.raster_score,
+            params.min_score,
+            100.0 * found.overlap,
+            params.inlier_m,
+            100.0 * params.min_overlap,
+            t.seeds.len(),
+            100.0 * overlap
+        ),
+    }
+}
+
+/// B's segments placed in A's frame by one transform.
+fn moved_rigidly(b: &[MapSegment], a_from_b: &Pose2) -> Vec<MapSegment> {
+    b.iter()
         .map(|s| MapSegment {
             segment: s.segment.transformed(a_from_b),
             born_scan: s.born_scan,
         })
-        .collect();
+        .collect()
+}
+
+/// B's segments (already in A's frame) merged into A, born after A's scans.
+fn merge(
+    a: &Input,
+    b_in_a: &[MapSegment],
+    mut map: GlobalMap,
+    config: &Config,
+) -> (Vec<MapSegment>, MapMergeResult) {
     let counts = merge_map(
         &config.merge,
         &config.directions,
         &MapMergeParams::default(),
         &mut map,
-        &b_in_a,
+        b_in_a,
         a.scans,
     );
     (map.iter().map(|(_, s)| *s).collect(), counts)
@@ -357,12 +765,16 @@ fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
 /// Removes a merged map an earlier merge left in the folder, so none stays beside a refusal.
 fn remove_stale(dir: &Path) -> Result<()> {
     for name in MAP_FILES {
-        let path = dir.join(name);
-        if path.is_file() {
-            std::fs::remove_file(&path)
-                .with_context(|| format!("{}: cannot remove", path.display()))?;
-            eprintln!("polymap: removed {} of an earlier merge", path.display());
-        }
+        remove_stale_file(&dir.join(name))?;
+    }
+    Ok(())
+}
+
+/// Removes one file of an earlier merge, if there.
+fn remove_stale_file(path: &Path) -> Result<()> {
+    if path.is_file() {
+        std::fs::remove_file(path).with_context(|| format!("{}: cannot remove", path.display()))?;
+        eprintln!("polymap: removed {} of an earlier merge", path.display());
     }
     Ok(())
 }

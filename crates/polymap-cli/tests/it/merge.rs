@@ -307,3 +307,195 @@ fn real_halves_merge_and_another_building_is_refused() {
     assert!(!o.status.success(), "{}", text(&o));
     assert_ne!(report["verdict"], "accepted");
 }
+
+/// Copies the run folder `src` to `dst` (without its manifest) with every pose and wall moved
+/// by the correction of its loop node (`node_scans` scans a node): node `k`'s pose, the
+/// trajectory's scan `t` and a segment born at `t` by `correction(k)` with `k = t /
+/// node_scans`.
+fn moved_folder(src: &Path, dst: &Path, node_scans: usize, correction: impl Fn(usize) -> Pose2) {
+    use polymap::geometry::Vec2;
+    fs::create_dir_all(dst).unwrap();
+    let mut map: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(src.join("map.json")).unwrap()).unwrap();
+    for s in map["segments"].as_array_mut().unwrap() {
+        let c = correction(s["born_scan"].as_u64().unwrap() as usize / node_scans);
+        for end in ["start", "end"] {
+            let p = Vec2::new(s[end][0].as_f64().unwrap(), s[end][1].as_f64().unwrap());
+            let q = c.transform_point(p);
+            s[end] = serde_json::json!([q.x, q.y]);
+        }
+    }
+    fs::write(dst.join("map.json"), map.to_string()).unwrap();
+    let mut nodes: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(src.join("loop_nodes.json")).unwrap()).unwrap();
+    for (k, n) in nodes["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .enumerate()
+    {
+        let p = &n["pose"];
+        let pose = Pose2::new(
+            p[0].as_f64().unwrap(),
+            p[1].as_f64().unwrap(),
+            p[2].as_f64().unwrap(),
+        );
+        let q = correction(k).compose(&pose);
+        n["pose"] = serde_json::json!([q.x_m, q.y_m, q.theta_rad]);
+    }
+    fs::write(dst.join("loop_nodes.json"), nodes.to_string()).unwrap();
+    let mut poses = read_tum(src.join("trajectory.tum")).unwrap();
+    for (t, p) in poses.iter_mut().enumerate() {
+        p.map_from_robot = correction(t / node_scans).compose(&p.map_from_robot);
+    }
+    polymap_io::tum::write_tum(dst.join("trajectory.tum"), &poses).unwrap();
+}
+
+/// Node poses of a run folder's `loop_nodes.json`.
+fn node_poses(dir: &Path) -> Vec<Pose2> {
+    let nodes: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(dir.join("loop_nodes.json")).unwrap()).unwrap();
+    nodes["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| {
+            let p = &n["pose"];
+            Pose2::new(
+                p[0].as_f64().unwrap(),
+                p[1].as_f64().unwrap(),
+                p[2].as_f64().unwrap(),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_map_merged_with_itself_moved_gives_the_transform_back() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let o = polymap(&["simulate", "clutter", "-o", d.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", text(&o));
+    let o = map_quietly(&d.join("clutter.clf"), &d.join("A"), &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    // S is A in a frame shifted and turned: a_from_s = T.
+    let t = Pose2::new(3.5, -2.25, 25f64.to_radians());
+    moved_folder(&d.join("A"), &d.join("S"), 20, |_| t.inverse());
+    let (o, report) = merge(&d.join("A"), &d.join("S"), &d.join("M"));
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(report["method"], "rigid");
+    let (m, deg) = error(&t, &a_from_b(&report));
+    assert!(m < 0.01 && deg < 0.1, "{m} m, {deg}°: {report}");
+    let a = read_map_json(d.join("A/map.json")).unwrap();
+    let merged = read_map_json(d.join("M/map.json")).unwrap();
+    assert!(
+        merged.segments.len() as f64 <= 1.1 * a.segments.len() as f64,
+        "{} segments from A's {}",
+        merged.segments.len(),
+        a.segments.len()
+    );
+}
+
+#[test]
+fn a_bent_map_is_refused_rigidly_and_bent_back_by_the_joint_pose_graph() {
+    // The same tour simulated twice with different noise: A mapped from the first, B from the
+    // second and then bent (as if it had drifted on its own).
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    for (seed, run) in [("1", "A"), ("2", "B")] {
+        let sim = d.join(format!("sim{seed}"));
+        let o = polymap(&[
+            "simulate",
+            "clutter",
+            "--seed",
+            seed,
+            "-o",
+            sim.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", text(&o));
+        let o = map_quietly(&sim.join("clutter.clf"), &d.join(run), &[]);
+        assert!(o.status.success(), "{}", text(&o));
+    }
+    // B drifts on: each node turns 0.4° more than it did, bending B's far end away.
+    let old = node_poses(&d.join("B"));
+    let mut bent = vec![old[0]];
+    for k in 1..old.len() {
+        let step = old[k - 1].between(&old[k]);
+        let turned = Pose2::new(step.x_m, step.y_m, step.theta_rad + 0.4f64.to_radians());
+        bent.push(bent[k - 1].compose(&turned));
+    }
+    let corrections: Vec<Pose2> = bent
+        .iter()
+        .zip(&old)
+        .map(|(new, old)| new.compose(&old.inverse()))
+        .collect();
+    let last = *corrections.last().unwrap();
+    moved_folder(&d.join("B"), &d.join("Bent"), 20, |k| {
+        corrections.get(k).copied().unwrap_or(last)
+    });
+    assert!(
+        last.translation().length() > 1.0,
+        "the bend moves B's end: {last:?}"
+    );
+    // B's trajectory as a merge laid it (`trajectory_b.tum`): mean distance to the truth, m.
+    let truths = read_tum(d.join("sim2/clutter.truth.tum")).unwrap();
+    let laid_off = |out: &str| {
+        let moved = read_tum(d.join(out).join("trajectory_b.tum")).unwrap();
+        assert_eq!(moved.len(), truths.len());
+        moved
+            .iter()
+            .zip(&truths)
+            .map(|(b, t)| {
+                let (p, q) = (
+                    b.map_from_robot.translation(),
+                    t.map_from_robot.translation(),
+                );
+                p.distance(q)
+            })
+            .sum::<f64>()
+            / moved.len() as f64
+    };
+    let by = |how: &str, out: &str| {
+        let (a, b, o) = (d.join("A"), d.join("Bent"), d.join(out));
+        let args = [
+            "merge",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "-o",
+            o.to_str().unwrap(),
+        ];
+        let o = polymap(&[&args[..], &["--by", how]].concat());
+        let report: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(d.join(out).join("merge.json")).unwrap())
+                .unwrap();
+        (o, report)
+    };
+    // One rigid transform cannot lay the bent B onto A: refused, or laid far off.
+    let (o, rigid) = by("rigid", "R");
+    let rigid_m = match o.status.success() {
+        true => laid_off("R"),
+        false => f64::INFINITY,
+    };
+    assert!(
+        rigid_m > 0.5,
+        "a rigid merge laid the bent B {rigid_m} m off: {rigid}"
+    );
+    // The joint pose graph bends it back.
+    let (o, report) = by("pose-graph", "M");
+    assert!(o.status.success(), "{}\n{report:#}", text(&o));
+    assert_eq!(report["method"], "pose_graph");
+    let g = &report["pose_graph"];
+    assert!(g["cross"]["used"].as_u64().unwrap() >= 5, "{g}");
+    assert!(g["moved"]["b"]["max_m"].as_f64().unwrap() > 0.5, "{g}");
+    assert_eq!(g["moved"]["a"]["max_m"], 0.0);
+    let merged_m = laid_off("M");
+    eprintln!("bent B laid {merged_m:.3} m off by the joint pose graph, {rigid_m:.3} m rigidly");
+    assert!(
+        merged_m < 0.3,
+        "B laid {merged_m} m off after the merge: {g}"
+    );
+    let a = read_map_json(d.join("A/map.json")).unwrap();
+    let b = read_map_json(d.join("B/map.json")).unwrap();
+    let merged = read_map_json(d.join("M/map.json")).unwrap();
+    assert!(merged.segments.len() < a.segments.len() + b.segments.len());
+}

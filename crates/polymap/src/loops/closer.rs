@@ -99,6 +99,19 @@ impl MotionDoubt {
     }
 }
 
+/// The ICP of submap matching: `align` with its first gate at most `params.match_gate_m` (the
+/// grid search covers larger offsets).
+pub(super) fn matching_align(align: AlignParams, params: &LoopParams) -> AlignParams {
+    let initial_gate_m = align
+        .initial_gate_m
+        .min(params.match_gate_m)
+        .max(align.final_gate_m);
+    AlignParams {
+        initial_gate_m,
+        ..align
+    }
+}
+
 /// A map-frame covariance `map_m2` in the frame of a pose heading `heading_rad`: `Rᵀ C R`.
 fn in_frame(map_m2: &DMat2, heading_rad: f64) -> DMat2 {
     let (s, c) = heading_rad.sin_cos();
@@ -112,15 +125,7 @@ impl LoopCloser {
     /// `match_gate_m`: the grid search covers larger offsets), `grid_cell_m` the cell size of
     /// their spatial index (speed only).
     pub fn new(params: LoopParams, align: AlignParams, grid_cell_m: f64) -> Self {
-        let initial_gate_m = align
-            .initial_gate_m
-            .min(params.match_gate_m)
-            .max(align.final_gate_m);
-        let align = AlignParams {
-            initial_gate_m,
-            ..align
-        };
-        let graph = NodeGraph::new(params.clone(), align, grid_cell_m);
+        let graph = NodeGraph::new(params.clone(), matching_align(align, &params), grid_cell_m);
         LoopCloser {
             worker: Worker::new(graph, params.background),
             params,

@@ -36,6 +36,7 @@
 mod closer;
 pub(crate) mod field;
 pub mod graph;
+mod joint;
 mod matching;
 mod nodes;
 mod params;
@@ -46,6 +47,7 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::Pose2;
 pub use closer::{LoopCloser, MotionDoubt, SavedNode};
 pub use graph::Edge;
+pub use joint::{CrossEdge, CrossVerdict, JointGraph, JointParams, joint_graph};
 pub use params::{LoopParams, MAX_SEARCH_STARTS};
 
 /// The graph's work for a node failed (a panic while matching or optimising: a bug, never

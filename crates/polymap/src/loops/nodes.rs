@@ -63,7 +63,7 @@ pub(super) struct JobResult {
 
 /// Candidates whose poses are within this many nodes of a chosen one are skipped: two
 /// neighbours of one place would test the same thing.
-const CANDIDATE_SPACING_NODES: usize = 2;
+pub(super) const CANDIDATE_SPACING_NODES: usize = 2;
 
 impl NodeGraph {
     /// An empty graph; `align` is the ICP used to match submaps, `grid_cell_m` the cell size
@@ -139,7 +139,7 @@ impl NodeGraph {
     }
 
     /// The loop edges node `k` gets from matching its candidates.
-    fn find_loop_edges(&self, k: usize, diagnostics: &mut LoopDiagnostics) -> Vec<Edge> {
+    pub(super) fn find_loop_edges(&self, k: usize, diagnostics: &mut LoopDiagnostics) -> Vec<Edge> {
         let mut found: Vec<Edge> = Vec::new();
         for c in &self.candidates(k) {
             diagnostics.candidates += 1;
@@ -284,7 +284,7 @@ impl NodeGraph {
 }
 
 /// A node with fewer points (after thinning) is not matched.
-const MIN_NODE_POINTS: usize = 20;
+pub(super) const MIN_NODE_POINTS: usize = 20;
 
 /// How far the graph's poses are from edge `e`'s measurement (`measured⁻¹ ∘ (from⁻¹ ∘ to)`).
 fn off(poses: &[Pose2], e: &Edge) -> Pose2 {
