@@ -299,15 +299,13 @@ fn the_node_outlives_a_publisher_that_goes_and_comes_back_and_a_wrong_type_on_it
     let s = summary(&live);
     let l = &s["live"];
     let mapped = l["scans_mapped"].as_u64().unwrap();
-    // A new publisher's first scan may go before discovery joined it to the node (best
-    // effort); a scan dropped by a full queue is counted. None is lost without a count.
-    assert!(mapped >= 295, "{l}");
     let dropped = l["dropped_scans"].as_u64().unwrap();
-    assert_eq!(
-        l["scan_messages"].as_u64().unwrap(),
-        mapped + dropped,
-        "{l}"
-    );
+    let received = l["scan_messages"].as_u64().unwrap();
+    // A new publisher's first scan may go before discovery joined it to the node (best
+    // effort); on a loaded machine the full queue drops scans, counted. None is lost without
+    // a count.
+    assert!(received >= 295, "{l}");
+    assert_eq!(received, mapped + dropped, "{l}");
     assert_eq!(
         got["counts"]["pose"].as_u64().unwrap(),
         mapped,
@@ -385,7 +383,13 @@ fn the_node_localizes_in_and_continues_a_saved_map_as_the_offline_commands_do() 
         (domain(4), "--resume", "map"),
     ] {
         let live = dir.path().join(format!("live{domain}"));
-        let node = start_node(domain, &live, &[flag, saved.to_str().unwrap()]);
+        // A queue that never fills: the comparison needs every scan, however loaded the
+        // machine is.
+        let node = start_node(
+            domain,
+            &live,
+            &[flag, saved.to_str().unwrap(), "--queue", "10000"],
+        );
         let got = run_peer(
             domain,
             dir.path(),
