@@ -58,7 +58,8 @@ pub struct Received {
 struct State {
     queue: VecDeque<Arrived>,
     /// (stamp seconds, odom_from_robot), in arrival order.
-    odometry: VecDeque<(f64, Pose2)>,
+    /// (stamp, nanoseconds; odom_from_robot), in arrival order.
+    odometry: VecDeque<(i128, Pose2)>,
     received: Received,
     /// Arrival times of the scans handed over and not yet claimed by [`ScanQueue::claim_arrival`].
     handed: VecDeque<Instant>,
@@ -75,18 +76,24 @@ pub struct ScanQueue {
     ready: Condvar,
     capacity: usize,
     attach_odometry: bool,
+    /// The odometry only witnesses the steps (no `--odometry`): none outside its span or across
+    /// a gap in it, as a recording's reader gives.
+    witness: bool,
 }
 
 impl ScanQueue {
     /// A queue holding at most `capacity` scans (at least 1); with `attach_odometry`, each
     /// scan handed over carries the odometry pose at its stamp (interpolated, or the nearest;
     /// a scan newer than every odometry message waits up to [`ODOMETRY_WAIT`] for the next).
-    pub fn new(capacity: usize, attach_odometry: bool) -> Arc<ScanQueue> {
+    /// With `witness`, a scan outside the odometry's span, or within a gap of over 1 s in it,
+    /// gets none (a recording's reader does the same).
+    pub fn new(capacity: usize, attach_odometry: bool, witness: bool) -> Arc<ScanQueue> {
         Arc::new(ScanQueue {
             state: Mutex::new(State::default()),
             ready: Condvar::new(),
             capacity: capacity.max(1),
             attach_odometry,
+            witness,
         })
     }
 
@@ -156,14 +163,14 @@ impl ScanQueue {
         true
     }
 
-    /// Keeps an odometry pose (`odom_from_robot` at `stamp_s`).
-    pub fn odometry(&self, stamp_s: f64, odom_from_robot: Pose2) {
+    /// Keeps an odometry pose (`odom_from_robot` at `stamp_ns`, nanoseconds).
+    pub fn odometry(&self, stamp_ns: i128, odom_from_robot: Pose2) {
         let mut s = self.lock();
         s.received.odometry_messages += 1;
         if s.odometry.len() >= ODOMETRY_KEPT {
             s.odometry.pop_front();
         }
-        s.odometry.push_back((stamp_s, odom_from_robot));
+        s.odometry.push_back((stamp_ns, odom_from_robot));
         drop(s);
         self.ready.notify_all();
     }
@@ -184,9 +191,9 @@ impl ScanQueue {
         self.lock().received.clone()
     }
 
-    /// The odometry pose at `stamp_s` (interpolated, else the nearest), from what arrived.
-    pub fn odometry_at(&self, stamp_s: f64) -> Option<Pose2> {
-        odometry_at(&self.lock().odometry, stamp_s)
+    /// The odometry pose at `stamp_ns` (interpolated, else the nearest), from what arrived.
+    pub fn odometry_at(&self, stamp_ns: i128) -> Option<Pose2> {
+        odometry_at(&self.lock().odometry, stamp_ns, false)
     }
 
     /// The arrival time of the oldest scan handed over and not yet claimed: the mapping run
@@ -200,7 +207,7 @@ impl ScanQueue {
         loop {
             if let Some(front) = s.queue.front() {
                 // Odometry seen but none yet at or after the scan: wait a little for it.
-                let t = front.scan.stamp.seconds;
+                let t = stamp_ns(&front.scan.stamp);
                 let behind = s.odometry.back().is_some_and(|(last, _)| *last < t);
                 let waited = front.arrived.elapsed();
                 if self.attach_odometry && behind && !s.closed && waited < ODOMETRY_WAIT {
@@ -214,7 +221,8 @@ impl ScanQueue {
             }
             if let Some(mut a) = s.queue.pop_front() {
                 if self.attach_odometry {
-                    a.scan.odom_from_robot = odometry_at(&s.odometry, a.scan.stamp.seconds);
+                    let t = stamp_ns(&a.scan.stamp);
+                    a.scan.odom_from_robot = odometry_at(&s.odometry, t, self.witness);
                 }
                 let valid = a
                     .scan
@@ -237,19 +245,35 @@ impl ScanQueue {
     }
 }
 
-/// The odometry pose at `t_s`: interpolated between the poses around it, else the nearest
-/// (the latest when the scan is newer than every odometry message so far).
-fn odometry_at(odometry: &VecDeque<(f64, Pose2)>, t_s: f64) -> Option<Pose2> {
-    let after = odometry.iter().position(|(s, _)| *s >= t_s);
+/// A scan's stamp in nanoseconds, exactly as it was read (from its text), else from its seconds.
+pub fn stamp_ns(stamp: &polymap::scan::Stamp) -> i128 {
+    polymap_io::ros::RosTime::from_stamp(stamp)
+        .map_or((stamp.seconds * 1e9).round() as i128, |t| t.nanos())
+}
+
+/// Witnessing odometry is interpolated only between messages at most this far apart,
+/// nanoseconds (a recording's reader's bound).
+const WITNESS_MAX_BRACKET_NS: i128 = 1_000_000_000;
+
+/// The odometry pose at `t_ns`, as a recording's reader gives it: a message's at its stamp,
+/// interpolated between the two around it, else the nearest; with `witness`, none outside the
+/// span nor across a gap of over 1 s.
+fn odometry_at(odometry: &VecDeque<(i128, Pose2)>, t_ns: i128, witness: bool) -> Option<Pose2> {
+    let after = odometry.iter().position(|(s, _)| *s >= t_ns);
     match after {
-        None => odometry.back().map(|(_, p)| *p),
-        Some(0) => odometry.front().map(|(_, p)| *p),
-        Some(i) => {
+        Some(i) if odometry[i].0 == t_ns => Some(odometry[i].1),
+        Some(i) if i > 0 => {
             let (t0, p0) = odometry[i - 1];
             let (t1, p1) = odometry[i];
-            let f = if t1 > t0 { (t_s - t0) / (t1 - t0) } else { 1.0 };
-            Some(p0.interpolate(&p1, f.clamp(0.0, 1.0)))
+            if witness && t1 - t0 > WITNESS_MAX_BRACKET_NS {
+                return None;
+            }
+            let f = ((t_ns - t0) as f64) / ((t1 - t0) as f64);
+            Some(p0.interpolate(&p1, f))
         }
+        _ if witness => None,
+        None => odometry.back().map(|(_, p)| *p),
+        Some(_) => odometry.front().map(|(_, p)| *p),
     }
 }
 
@@ -389,7 +413,7 @@ mod tests {
 
     #[test]
     fn a_full_queue_drops_the_oldest_scan_and_counts_it() {
-        let q = ScanQueue::new(2, false);
+        let q = ScanQueue::new(2, false, false);
         let now = Instant::now();
         for t in [1.0, 2.0, 3.0] {
             assert!(q.push(scan(t), now));
@@ -412,7 +436,7 @@ mod tests {
 
     #[test]
     fn scans_held_back_may_exceed_the_capacity_by_their_allowance() {
-        let q = ScanQueue::new(2, false);
+        let q = ScanQueue::new(2, false, false);
         for t in 0..5 {
             q.push_held(scan(f64::from(t)), Instant::now(), 3);
         }
@@ -428,7 +452,7 @@ mod tests {
         let mut source = LiveSource::new(Arc::clone(&q), "/scan", RayStore::new(10));
         assert_eq!(std::iter::from_fn(|| source.next_scan()).count(), 5);
         // As the held scans are worked off, the bound comes back to the capacity.
-        let q = ScanQueue::new(2, false);
+        let q = ScanQueue::new(2, false, false);
         for t in 0..4 {
             q.push_held(scan(f64::from(t)), Instant::now(), 10);
         }
@@ -448,7 +472,7 @@ mod tests {
 
     #[test]
     fn a_closed_queue_hands_over_what_it_holds_then_ends() {
-        let q = ScanQueue::new(8, false);
+        let q = ScanQueue::new(8, false, false);
         q.push(scan(1.0), Instant::now());
         q.close();
         assert!(!q.push(scan(2.0), Instant::now()));
@@ -461,7 +485,7 @@ mod tests {
 
     #[test]
     fn a_waiting_reader_wakes_for_a_scan_from_another_thread() {
-        let q = ScanQueue::new(8, false);
+        let q = ScanQueue::new(8, false, false);
         let pusher = {
             let q = Arc::clone(&q);
             std::thread::spawn(move || {
@@ -477,9 +501,9 @@ mod tests {
 
     #[test]
     fn odometry_is_interpolated_at_the_scans_stamp() {
-        let q = ScanQueue::new(8, true);
-        q.odometry(1.0, Pose2::new(0.0, 0.0, 0.0));
-        q.odometry(2.0, Pose2::new(1.0, 0.0, 0.0));
+        let q = ScanQueue::new(8, true, false);
+        q.odometry(1_000_000_000, Pose2::new(0.0, 0.0, 0.0));
+        q.odometry(2_000_000_000, Pose2::new(1.0, 0.0, 0.0));
         q.push(scan(1.25), Instant::now());
         q.push(scan(5.0), Instant::now());
         q.close();
@@ -495,14 +519,14 @@ mod tests {
 
     #[test]
     fn a_scan_newer_than_the_odometry_waits_for_the_next_message() {
-        let q = ScanQueue::new(8, true);
-        q.odometry(1.0, Pose2::new(0.0, 0.0, 0.0));
+        let q = ScanQueue::new(8, true, false);
+        q.odometry(1_000_000_000, Pose2::new(0.0, 0.0, 0.0));
         q.push(scan(1.5), Instant::now());
         let odometer = {
             let q = Arc::clone(&q);
             std::thread::spawn(move || {
                 std::thread::sleep(std::time::Duration::from_millis(2));
-                q.odometry(2.0, Pose2::new(1.0, 0.0, 0.0));
+                q.odometry(2_000_000_000, Pose2::new(1.0, 0.0, 0.0));
             })
         };
         let mut source = LiveSource::new(Arc::clone(&q), "/scan", RayStore::new(10));
@@ -515,7 +539,7 @@ mod tests {
 
     #[test]
     fn warnings_are_kept_up_to_their_bound_and_the_rest_counted() {
-        let q = ScanQueue::new(8, false);
+        let q = ScanQueue::new(8, false, false);
         for i in 0..(MAX_WARNINGS + 3) {
             q.warn_once(format!("warning {i}"));
         }

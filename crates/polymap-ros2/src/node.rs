@@ -233,7 +233,7 @@ impl Ros2Node {
             .map_err(|e| setup("node")(format!("{e:?}")))?;
         // Odometry rides with every scan, as a recording's does: with `--odometry` it starts
         // the alignment, without it witnesses the step.
-        let queue = ScanQueue::new(options.queue_scans, true);
+        let queue = ScanQueue::new(options.queue_scans, true, !options.odometry);
         let rays = RayStore::new(options.grid_ray_scans);
         let frames = Arc::new(Mutex::new(Frames::default()));
         let scans = subscription::<LaserScan>(
@@ -363,7 +363,7 @@ impl Ros2Node {
         // chain; else map → base.
         let odom = frames.odom.as_ref().and_then(|(odom_frame, _)| {
             self.queue
-                .odometry_at(stamp.seconds)
+                .odometry_at(crate::live::stamp_ns(stamp))
                 .map(|odom_from_base| (odom_frame.clone(), odom_from_base))
         });
         let tf = match odom {
@@ -679,7 +679,7 @@ impl Receiving {
                     },
                     orientation: t.transform.rotation,
                 });
-                self.queue.odometry(m.stamp.to_stamp().seconds, pose);
+                self.queue.odometry(m.stamp.nanos(), pose);
                 let mut f = self.frames.lock().unwrap_or_else(|e| e.into_inner());
                 f.odom = Some((ODOM_FRAME.to_owned(), frame_name(&m.child_frame).to_owned()));
             }
@@ -825,12 +825,9 @@ impl Receiving {
                         ));
                         continue;
                     }
-                    let stamp = Stamp::from_seconds(
-                        f64::from(msg.header.stamp.sec)
-                            + f64::from(msg.header.stamp.nanosec) * 1e-9,
-                    );
-                    self.queue
-                        .odometry(stamp.seconds, plane_pose(&msg.pose.pose));
+                    let stamp_ns = i128::from(msg.header.stamp.sec) * 1_000_000_000
+                        + i128::from(msg.header.stamp.nanosec);
+                    self.queue.odometry(stamp_ns, plane_pose(&msg.pose.pose));
                     let mut f = self.frames.lock().unwrap_or_else(|e| e.into_inner());
                     if f.odom.is_none() {
                         f.odom = Some((msg.header.frame_id.clone(), msg.child_frame_id.clone()));

@@ -299,6 +299,9 @@ def main():
             len(listener.readers[k].get_matched_publications()) > 0 for k in ("pose", "tf")
         ):
             time.sleep(0.01)
+        # Matched on our side is not yet matched on the node's: give discovery a moment, so
+        # the first best-effort scans are not sent before the node listens.
+        time.sleep(0.5)
         wrong = None
         if a.wrong_type:
             # Another participant publishes std_msgs/String on the scan topic's very name.

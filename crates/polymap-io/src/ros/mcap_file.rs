@@ -358,6 +358,8 @@ pub struct McapWriter {
     writer: mcap::Writer<BufWriter<File>>,
     path: PathBuf,
     sequence: u32,
+    /// The last message's log time, nanoseconds.
+    last_log_time: u64,
 }
 
 impl McapWriter {
@@ -380,6 +382,7 @@ impl McapWriter {
             writer,
             path: path.to_path_buf(),
             sequence: 0,
+            last_log_time: 0,
         })
     }
 
@@ -398,11 +401,15 @@ impl McapWriter {
     /// Writes one CDR message, received (and published) at `time`.
     pub fn write(&mut self, channel: u16, time: RosTime, data: &[u8]) -> Result<(), RosError> {
         let nanos = u64::try_from(time.nanos()).unwrap_or(0);
+        // The log time is when the message was recorded, which never goes back: a log whose
+        // stamps do (Intel's, in places) keeps its order for readers that sort by log time.
+        let log_time = nanos.max(self.last_log_time);
+        self.last_log_time = log_time;
         self.sequence += 1;
         let header = MessageHeader {
             channel_id: channel,
             sequence: self.sequence,
-            log_time: nanos,
+            log_time,
             publish_time: nanos,
         };
         self.writer
