@@ -208,7 +208,9 @@ impl ScanQueue {
             if let Some(front) = s.queue.front() {
                 // Odometry seen but none yet at or after the scan: wait a little for it.
                 let t = stamp_ns(&front.scan.stamp);
-                let behind = s.odometry.back().is_some_and(|(last, _)| *last < t);
+                // Seen odometry, but none stamped at or after the scan (stamps may arrive out
+                // of order: any message counts, not only the last).
+                let behind = !s.odometry.is_empty() && s.odometry.iter().all(|(st, _)| *st < t);
                 let waited = front.arrived.elapsed();
                 if self.attach_odometry && behind && !s.closed && waited < ODOMETRY_WAIT {
                     let (next, _) = self
