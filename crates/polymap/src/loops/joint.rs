@@ -10,11 +10,11 @@
 //! the optimisation is repeated without the rejected ones.
 
 use crate::align::{AlignParams, points_along};
-use crate::geometry::{Pose2, Segment};
+use crate::geometry::Pose2;
 
 use super::closer::matching_align;
 use super::graph::{self, Edge};
-use super::nodes::{CANDIDATE_SPACING_NODES, Candidate, MIN_NODE_POINTS, NodeGraph, Submap};
+use super::nodes::{Candidate, MIN_NODE_POINTS, NodeGraph, Submap};
 use super::{LoopDiagnostics, LoopParams, SavedNode};
 use crate::check::{Checks, InvalidParam};
 
@@ -327,50 +327,10 @@ pub fn joint_graph(
 /// within `search_radius_m`, nearest first, apart from each other, with their neighbours'
 /// submaps in their frame.
 fn cross_candidates(joint: &NodeGraph, na: usize, k: usize) -> Vec<Candidate> {
-    let p = &joint.params;
-    if joint.submaps[k].points.len() < MIN_NODE_POINTS {
+    if na == 0 || joint.submaps[k].points.len() < MIN_NODE_POINTS {
         return Vec::new();
     }
-    let here = joint.poses[k].translation();
-    let mut near: Vec<(f64, usize)> = (0..na)
-        .filter_map(|j| {
-            let d = joint.poses[j].translation().distance(here);
-            (d <= p.search_radius_m).then_some((d, j))
-        })
-        .collect();
-    near.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut chosen: Vec<usize> = Vec::new();
-    for (_, j) in near {
-        if chosen.len() >= p.max_candidates {
-            break;
-        }
-        if chosen
-            .iter()
-            .all(|c| c.abs_diff(j) > CANDIDATE_SPACING_NODES)
-        {
-            chosen.push(j);
-        }
-    }
-    chosen
-        .into_iter()
-        .map(|j| {
-            let mut target: Vec<Segment> = Vec::new();
-            for i in j.saturating_sub(1)..=(j + 1).min(na - 1) {
-                let j_from_i = joint.poses[j].between(&joint.poses[i]);
-                target.extend(
-                    joint.submaps[i]
-                        .segments
-                        .iter()
-                        .map(|s| s.transformed(&j_from_i)),
-                );
-            }
-            Candidate {
-                j,
-                predicted: joint.poses[j].between(&joint.poses[k]),
-                target,
-            }
-        })
-        .collect()
+    joint.near_candidates(k, na - 1, na - 1)
 }
 
 /// Marks `Unconfirmed` every cross constraint that no constraint of another B node within
@@ -414,7 +374,7 @@ fn confirm(cross: &mut [CrossEdge], a: &[SavedNode], b_seeded: &[Pose2], params:
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Vec2;
+    use crate::geometry::{Segment, Vec2};
 
     /// A corridor world: walls with doors and cross walls, no symmetry over a few metres.
     fn world() -> Vec<Segment> {

@@ -240,8 +240,21 @@ impl NodeGraph {
         {
             return Vec::new();
         }
+        self.near_candidates(k, k - p.min_node_gap, k - 1)
+    }
+
+    /// The nodes `0..=last` within `search_radius_m` of node `k`, nearest first, at most
+    /// `max_candidates` of them more than `CANDIDATE_SPACING_NODES` apart, each with its own
+    /// and its neighbours' (up to node `neighbours_to`) segments in its frame.
+    pub(super) fn near_candidates(
+        &self,
+        k: usize,
+        last: usize,
+        neighbours_to: usize,
+    ) -> Vec<Candidate> {
+        let p = &self.params;
         let here = self.poses[k].translation();
-        let mut near: Vec<(f64, usize)> = (0..=k - p.min_node_gap)
+        let mut near: Vec<(f64, usize)> = (0..=last)
             .filter_map(|j| {
                 let d = self.poses[j].translation().distance(here);
                 (d <= p.search_radius_m).then_some((d, j))
@@ -264,7 +277,7 @@ impl NodeGraph {
             .into_iter()
             .map(|j| {
                 let mut target: Vec<Segment> = Vec::new();
-                for i in j.saturating_sub(1)..=(j + 1).min(k - 1) {
+                for i in j.saturating_sub(1)..=(j + 1).min(neighbours_to) {
                     let j_from_i = self.poses[j].between(&self.poses[i]);
                     target.extend(
                         self.submaps[i]
