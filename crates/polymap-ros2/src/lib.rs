@@ -10,7 +10,9 @@
 #![deny(missing_docs)]
 
 pub mod dds;
+mod grid;
 pub mod live;
 pub mod msgs;
 pub mod node;
 pub mod outputs;
+mod receive;
