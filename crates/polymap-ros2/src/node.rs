@@ -12,6 +12,7 @@ use polymap::geometry::Segment;
 use polymap::mapper::{Mapper, Update};
 use polymap::scan::Stamp;
 use polymap_io::ros::tf::{TfBuffer, TfLimits};
+use ros2_client::dds::rustdds::Topic;
 use ros2_client::qos::{Durability, History, Reliability, WhenFull};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions as RclOptions, Publisher,
@@ -135,18 +136,22 @@ fn topic_name(name: &str) -> Result<Name, NodeError> {
     parsed.map_err(|e| setup(format!("topic name {name:?}"))(format!("{e:?}")))
 }
 
+/// The topic `name` of message type `M`.
+fn topic<M: RosMessage>(node: &mut Node, name: &str, qos: &QosProfile) -> Result<Topic, NodeError> {
+    node.create_topic(
+        &topic_name(name)?,
+        MessageTypeName::new(M::PACKAGE, M::NAME),
+        qos,
+    )
+    .map_err(|e| setup(format!("topic {name}"))(e.to_string()))
+}
+
 fn publisher<M: RosMessage + Serialize>(
     node: &mut Node,
     name: &str,
     qos: QosProfile,
 ) -> Result<Publisher<M>, NodeError> {
-    let topic = node
-        .create_topic(
-            &topic_name(name)?,
-            MessageTypeName::new(M::PACKAGE, M::NAME),
-            &qos,
-        )
-        .map_err(|e| setup(format!("topic {name}"))(e.to_string()))?;
+    let topic = topic::<M>(node, name, &qos)?;
     node.create_publisher(&topic, Some(qos))
         .map_err(|e| setup(format!("publisher on {name}"))(e.to_string()))
 }
@@ -156,13 +161,7 @@ fn subscription<M: RosMessage + DeserializeOwned + 'static>(
     name: &str,
     qos: QosProfile,
 ) -> Result<Subscription<M>, NodeError> {
-    let topic = node
-        .create_topic(
-            &topic_name(name)?,
-            MessageTypeName::new(M::PACKAGE, M::NAME),
-            &qos,
-        )
-        .map_err(|e| setup(format!("topic {name}"))(e.to_string()))?;
+    let topic = topic::<M>(node, name, &qos)?;
     node.create_subscription(&topic, Some(qos))
         .map_err(|e| setup(format!("subscription to {name}"))(e.to_string()))
 }
