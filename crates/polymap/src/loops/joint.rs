@@ -186,59 +186,20 @@ pub fn joint_graph(
     grid_cell_m: f64,
     params: &JointParams,
 ) -> JointGraph {
-    let align = matching_align(align.clone(), loops);
     let loops = LoopParams {
         enabled: true,
         ..loops.clone()
     };
-    let submap = |n: &SavedNode| Submap {
-        points: points_along(&n.segments, loops.node_point_spacing_m),
-        segments: n.segments.clone(),
-    };
-    // B's own loop edges, matched again among its saved nodes as the loop closer does.
-    let mut own = NodeGraph::new(loops.clone(), align.clone(), grid_cell_m);
-    for n in b {
-        own.poses.push(n.pose);
-        own.submaps.push(submap(n));
-    }
-    let mut diagnostics = LoopDiagnostics::default();
-    let mut b_loops: Vec<Edge> = Vec::new();
-    for k in 0..b.len() {
-        let found = own.find_loop_edges(k, &mut diagnostics);
-        if !found.is_empty() {
-            own.last_closed = Some(k);
-        }
-        b_loops.extend(found);
-    }
-    // The joint graph: A's nodes first (fixed), then B's, seeded.
-    let na = a.len();
-    let mut joint = NodeGraph::new(loops.clone(), align, grid_cell_m);
-    for n in a {
-        joint.poses.push(n.pose);
-        joint.submaps.push(Submap {
-            points: Vec::new(),
-            segments: n.segments.clone(),
-        });
-    }
     let b_seeded: Vec<Pose2> = b.iter().map(|n| a_from_b.compose(&n.pose)).collect();
-    joint.poses.extend_from_slice(&b_seeded);
-    joint.submaps.extend(own.submaps);
+    let joint = joint_nodes(a, b, &b_seeded, &loops, align, grid_cell_m);
+    let mut diagnostics = LoopDiagnostics::default();
+    // B's own loop edges, matched again among its saved nodes as the loop closer does.
+    let b_loops = own_loop_edges(&joint, b, &mut diagnostics);
+    let na = a.len();
     let mut cross: Vec<CrossEdge> = Vec::new();
     let mut tried = 0;
     for k in 0..b.len() {
-        for c in cross_candidates(&joint, na, na + k) {
-            tried += 1;
-            if let Some(measured) = joint.match_nodes(na + k, &c, &mut diagnostics) {
-                cross.push(CrossEdge {
-                    a_node: c.j,
-                    b_node: k,
-                    measured,
-                    residual_m: 0.0,
-                    residual_deg: 0.0,
-                    verdict: CrossVerdict::Used,
-                });
-            }
-        }
+        tried += cross_of(&joint, na, k, &mut cross, &mut diagnostics);
     }
     confirm(&mut cross, a, &b_seeded, params);
     let mut edges: Vec<Edge> = (1..b.len())
@@ -323,6 +284,81 @@ pub fn joint_graph(
     }
 }
 
+/// The joint graph's nodes: A's first (their segments only: A's nodes are matched against,
+/// never matched), then B's at `b_poses` (A's frame) with their submaps. `align` is mapping's
+/// ICP, narrowed as loop closure narrows it.
+pub(super) fn joint_nodes(
+    a: &[SavedNode],
+    b: &[SavedNode],
+    b_poses: &[Pose2],
+    loops: &LoopParams,
+    align: &AlignParams,
+    grid_cell_m: f64,
+) -> NodeGraph {
+    let align = matching_align(align.clone(), loops);
+    let mut joint = NodeGraph::new(loops.clone(), align, grid_cell_m);
+    for n in a {
+        joint.poses.push(n.pose);
+        joint.submaps.push(Submap {
+            points: Vec::new(),
+            segments: n.segments.clone(),
+        });
+    }
+    joint.poses.extend_from_slice(b_poses);
+    joint.submaps.extend(b.iter().map(|n| Submap {
+        points: points_along(&n.segments, loops.node_point_spacing_m),
+        segments: n.segments.clone(),
+    }));
+    joint
+}
+
+/// B's own loop edges (indices in B), matched among B's nodes (the last of `joint`'s, with
+/// their submaps) at their saved poses as the loop closer matches them.
+fn own_loop_edges(
+    joint: &NodeGraph,
+    b: &[SavedNode],
+    diagnostics: &mut LoopDiagnostics,
+) -> Vec<Edge> {
+    let mut own = NodeGraph::new(joint.params.clone(), joint.align.clone(), joint.grid_cell_m);
+    own.poses = b.iter().map(|n| n.pose).collect();
+    own.submaps = joint.submaps[joint.submaps.len() - b.len()..].to_vec();
+    let mut edges = Vec::new();
+    for k in 0..b.len() {
+        let found = own.find_loop_edges(k, diagnostics);
+        if !found.is_empty() {
+            own.last_closed = Some(k);
+        }
+        edges.extend(found);
+    }
+    edges
+}
+
+/// Matches B's node `k` (index in B), as `joint` (whose first `na` nodes are A's) places it,
+/// against A's nodes near it: each accepted match is appended to `cross`. Returns the
+/// candidates tried.
+pub(super) fn cross_of(
+    joint: &NodeGraph,
+    na: usize,
+    k: usize,
+    cross: &mut Vec<CrossEdge>,
+    diagnostics: &mut LoopDiagnostics,
+) -> usize {
+    let candidates = cross_candidates(joint, na, na + k);
+    for c in &candidates {
+        if let Some(measured) = joint.match_nodes(na + k, c, diagnostics) {
+            cross.push(CrossEdge {
+                a_node: c.j,
+                b_node: k,
+                measured,
+                residual_m: 0.0,
+                residual_deg: 0.0,
+                verdict: CrossVerdict::Used,
+            });
+        }
+    }
+    candidates.len()
+}
+
 /// A's nodes to match B's node `k` (index in `joint`, whose first `na` nodes are A's) against:
 /// within `search_radius_m`, nearest first, apart from each other, with their neighbours'
 /// submaps in their frame.
@@ -336,7 +372,12 @@ fn cross_candidates(joint: &NodeGraph, na: usize, k: usize) -> Vec<Candidate> {
 /// Marks `Unconfirmed` every cross constraint that no constraint of another B node within
 /// `agree_within_nodes` agrees with: B's shape over a few nodes is trusted, so two true
 /// matches put the other's node where it matched.
-fn confirm(cross: &mut [CrossEdge], a: &[SavedNode], b_seeded: &[Pose2], params: &JointParams) {
+pub(super) fn confirm(
+    cross: &mut [CrossEdge],
+    a: &[SavedNode],
+    b_seeded: &[Pose2],
+    params: &JointParams,
+) {
     // Where each constraint puts its B node in A's frame, and the B frame's placement it
     // implies (B's node poses relative to each other as seeded).
     let placed: Vec<Pose2> = cross
@@ -372,7 +413,7 @@ fn confirm(cross: &mut [CrossEdge], a: &[SavedNode], b_seeded: &[Pose2], params:
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::geometry::{Segment, Vec2};
 
@@ -397,7 +438,7 @@ mod tests {
 
     /// Nodes along the corridor every metre from `x0` to `x1`, each holding the walls within
     /// 5 m in its frame; poses bent by `bend` (radians per metre travelled) from the truth.
-    fn nodes(x0: f64, x1: f64, bend: f64) -> (Vec<SavedNode>, Vec<Pose2>) {
+    pub(in crate::loops) fn nodes(x0: f64, x1: f64, bend: f64) -> (Vec<SavedNode>, Vec<Pose2>) {
         let walls = world();
         let mut saved = Vec::new();
         let mut truth = Vec::new();

@@ -37,6 +37,7 @@ mod closer;
 pub(crate) mod field;
 pub mod graph;
 mod joint;
+mod joint_search;
 mod matching;
 mod nodes;
 mod params;
@@ -48,6 +49,7 @@ use crate::geometry::Pose2;
 pub use closer::{LoopCloser, MotionDoubt, SavedNode};
 pub use graph::Edge;
 pub use joint::{CrossEdge, CrossVerdict, JointGraph, JointParams, joint_graph};
+pub use joint_search::{NodeSearch, NodeSearchParams, NodeSeed, node_search_seeds};
 pub use params::{LoopParams, MAX_SEARCH_STARTS};
 
 /// The graph's work for a node failed (a panic while matching or optimising: a bug, never
