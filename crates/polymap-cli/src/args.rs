@@ -29,8 +29,8 @@ pub enum Command {
     /// Localize a log in a saved map without changing the map: global localization at the
     /// start, then tracking (with recovery when lost); writes the trajectory in the map's frame.
     Localize(LocalizeArgs),
-    /// Merge two maps of the same place made separately: find where B lies in A (no guess
-    /// needed), refuse maps that do not overlap or fit in two places, merge B into A.
+    /// Merge maps of the same place made separately: find where each lies in the first (no
+    /// guess needed), refuse maps that do not overlap or fit in two places, merge the others.
     Merge(MergeArgs),
     /// Run as a ROS 2 SLAM node (no ROS installation needed): map the LaserScans of a live
     /// robot, publish /map, /tf, /pose, polymap/segments and polymap/status; on Ctrl-C or
@@ -125,13 +125,13 @@ pub struct LocalizeArgs {
 
 #[derive(Debug, Args)]
 pub struct MergeArgs {
-    /// The first map's folder (output of `polymap map`, holding map.json): the merged map is
-    /// in its frame.
-    pub a: PathBuf,
-    /// The second map's folder (holding map.json).
-    pub b: PathBuf,
-    /// Output folder: map.json (merged, A's frame), merge.json (the transform a_from_b, score,
-    /// rival, overlap), map.svg.
+    /// The maps' folders (outputs of `polymap map`, holding map.json), two or more: the merged
+    /// map is in the first one's frame; the others join it in the order of their overlap.
+    #[arg(required = true, num_args = 2..)]
+    pub maps: Vec<PathBuf>,
+    /// Output folder: map.json (merged, the first map's frame), merge.json (each map's
+    /// transform or why it was refused, scores, overlap), map.svg, and each merged map's
+    /// trajectory as laid.
     #[arg(short, long)]
     pub output: PathBuf,
     /// How B is laid onto A: `auto` (one rigid transform when it fits, else B bent onto A by

@@ -8,6 +8,7 @@ mod hardening_folders;
 mod hardening_inputs;
 mod lifelong;
 mod merge;
+mod merge_many;
 mod observe;
 mod readme;
 mod ros;
