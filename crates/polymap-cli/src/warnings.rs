@@ -1,6 +1,8 @@
 //! Counted warnings about what the reader accepted but found odd.
 
-use polymap::tracking::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary, WEAK_STRETCH_M};
+use polymap::tracking::{
+    ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary, WEAK_STRETCH_M, WEAK_TRAVEL_SHARE,
+};
 use polymap_export::report::MapConsistency;
 use polymap_io::carmen::CarmenStats;
 
@@ -103,6 +105,38 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize, witness_m: f64) {
              the map there (summary.json: tracking.weak_stretches)",
             t.weak_stretches.len(),
             listed.join(", ")
+        );
+    }
+    if t.weak_travel_warns() {
+        let mut parts = t.weak_travel_parts.clone();
+        parts.sort_by(|a, b| b.weak_travel_m.total_cmp(&a.weak_travel_m));
+        let listed: Vec<String> = parts
+            .iter()
+            .take(3)
+            .map(|p| {
+                format!(
+                    "scans {}-{}: {:.0} % of {:.0} m",
+                    p.first,
+                    p.last,
+                    100.0 * p.weak_travel_m / p.travel_m.max(1e-9),
+                    p.travel_m
+                )
+            })
+            .collect();
+        let most = match listed.is_empty() {
+            true => String::new(),
+            false => format!(" (most in {})", listed.join(", ")),
+        };
+        eprintln!(
+            "polymap: warning: {:.0} % of the travel ({:.1} of {:.1} m) was on steps observed \
+             by few points along a direction (above {:.0} %){most}: distances along corridors \
+             came from the motion prior there, and many slightly short steps bend or shorten \
+             the map (a short-range laser, long bare corridors); check the map there \
+             (summary.json: tracking.weak_travel_m, weak_travel_parts)",
+            100.0 * t.weak_travel_m / t.travel_m.max(1e-9),
+            t.weak_travel_m,
+            t.travel_m,
+            100.0 * WEAK_TRAVEL_SHARE,
         );
     }
     // Scans weak only because a direction was observed by few points are common along any

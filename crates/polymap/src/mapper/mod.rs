@@ -309,6 +309,7 @@ impl Mapper {
     /// from there on.
     pub fn finish(&mut self) -> Result<LoopDiagnostics, LoopFailure> {
         let mut diagnostics = LoopDiagnostics::default();
+        self.tracker.close_summary();
         if let Some(c) = self.loops.finish(&mut diagnostics) {
             self.apply_correction(&c);
         }

@@ -32,8 +32,9 @@ pub use strategy::{
     UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan,
 };
 pub use summary::{
-    MAX_GAP_SCANS, ODOMETRY_CHECK_MIN_TRAVEL_M, ODOMETRY_WITNESS_WITHIN, TrackingSummary,
-    WEAK_STRETCH_M, WeakStretch,
+    MAX_GAP_SCANS, MAX_WEAK_TRAVEL_PARTS, ODOMETRY_CHECK_MIN_TRAVEL_M, ODOMETRY_WITNESS_WITHIN,
+    TrackingSummary, WEAK_STRETCH_M, WEAK_TRAVEL_MIN_M, WEAK_TRAVEL_PART_M, WEAK_TRAVEL_SHARE,
+    WeakStretch, WeakTravelPart,
 };
 pub use tracker::{ScanNumber, TrackedScan, Tracker};
 pub use verdict::{OdometryWitness, Reason, Tracking, Verdict, verdict};

@@ -9,7 +9,7 @@ use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
 use super::strategy::{TrackConfig, TrackInput, track_scan};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
-use super::verdict::{OdometryWitness, Tracking, Verdict};
+use super::verdict::{OdometryWitness, Reason, Tracking, Verdict};
 use crate::align::{AlignParams, AlignResult, thin_points};
 use crate::geometry::Pose2;
 use crate::map::GlobalMap;
@@ -148,6 +148,12 @@ impl Tracker {
         &self.summary
     }
 
+    /// Ends the run's summary at its last scan taken so far (the stretch of travel going on
+    /// is judged); more scans may follow.
+    pub fn close_summary(&mut self) {
+        self.summary.close_part();
+    }
+
     /// Counts the lost scans `first..=last` (this run's numbering; one lost range) as weak
     /// instead: scans placed after the fact.
     pub(crate) fn relabel_lost_as_weak(&mut self, first: u32, last: u32) {
@@ -237,6 +243,14 @@ impl Tracker {
             let weak = tracking.verdict == Verdict::Weak;
             self.summary
                 .count_weak_step(i, weak, tracked_m.unwrap_or(0.0), odometry_m);
+            if let (false, Some(tracked_m)) = (lost, tracked_m) {
+                let weakly_observed = weak
+                    && matches!(
+                        tracking.reason,
+                        Reason::WeaklyObserved | Reason::Degenerate | Reason::Slowed
+                    );
+                self.summary.count_step(i, tracked_m, weakly_observed);
+            }
             self.prev_pose = self.last_pose.replace(pose);
             self.last_odom = scan.odom_from_robot;
             if tracking.carries_tracking() {
