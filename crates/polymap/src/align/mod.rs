@@ -25,6 +25,7 @@ mod buffers;
 mod correlative;
 mod endpoints;
 mod global;
+mod global_params;
 mod nearest;
 mod pair_search;
 mod pairs;

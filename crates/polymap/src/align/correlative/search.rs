@@ -1,0 +1,340 @@
+//! The search state of the correlative matcher: a window's rotations and the points' cells,
+//! blocks of translations with their bounds, the best-first queue, and the search over it.
+
+use super::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
+use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// The rotations of a window: for each, the points' cells at zero offset, all rotations in
+/// shared buffers (four allocations per search instead of two per rotation).
+#[derive(Debug, Clone, Default)]
+pub(super) struct Rotations {
+    pub(super) theta_rad: Vec<f64>,
+    /// Per rotation, the smallest and largest cell coordinates, `(min_x, min_y, max_x, max_y)`,
+    /// when its flat indices are valid: a block whose every cell lands inside the raster is
+    /// summed from them without checks. `None` for no cells, or for a rotation whose extent
+    /// has a corner (`(min_x, min_y)` or `(max_x, max_y)`, bounding every cell's flat index)
+    /// whose flat index does not fit an `i32` (far from a wide raster, where a block's offset
+    /// may still bring it inside): its blocks are summed with checks (the same sums).
+    pub(super) extent: Vec<Option<(i64, i64, i64, i64)>>,
+    /// `points` cells per rotation, rotation after rotation; coordinates clamped to
+    /// `±CELL_CLAMP` (still outside every raster).
+    pub(super) cells: Vec<(i32, i32)>,
+    /// Each cell as its index into a level's padded values at zero offset (`y × padded width +
+    /// x`), valid where the rotation's extent lies inside: a block inside the raster adds one
+    /// offset per point instead of a row product.
+    pub(super) flat: Vec<i32>,
+    pub(super) points: usize,
+}
+
+/// The largest cell coordinate kept (far beyond any raster: at most 2²⁰ cells).
+pub(super) const CELL_CLAMP: i64 = 1 << 30;
+
+impl Rotations {
+    pub(super) fn len(&self) -> usize {
+        self.theta_rad.len()
+    }
+
+    pub(super) fn cells(&self, r: usize) -> &[(i32, i32)] {
+        &self.cells[r * self.points..(r + 1) * self.points]
+    }
+
+    pub(super) fn flat(&self, r: usize) -> &[i32] {
+        &self.flat[r * self.points..(r + 1) * self.points]
+    }
+}
+
+/// A block of translations: offsets `[ix, ix + 2^level) × [iy, iy + 2^level)` cells at one
+/// rotation, with its bound.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Block {
+    pub(super) rotation: usize,
+    pub(super) ix: i64,
+    pub(super) iy: i64,
+    pub(super) level: u32,
+    pub(super) bound: f32,
+}
+
+/// A block waiting to be opened, compact (a frontier holds thousands), ordered by `key`: its
+/// bound's bits in an order-preserving form; at equal bounds the higher level first (a block
+/// may hold a pose as good as one already queued), then the pose nearer the window's centre
+/// (among poses scoring alike, the one the prediction favours, whatever the order of the
+/// search).
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Queued {
+    pub(super) key: u64,
+    pub(super) rotation: u32,
+    pub(super) ix: i32,
+    pub(super) iy: i32,
+}
+
+/// Bits of [`Queued::key`] below the bound's and the level's: the nearness to the centre.
+pub(super) const NEAR_BITS: u32 = 24;
+
+impl Queued {
+    /// `b` queued, for a window of `rotations` rotations.
+    pub(super) fn of(b: &Block, rotations: usize) -> Self {
+        // Finite and infinite floats ordered as `total_cmp` orders them.
+        let bits = b.bound.to_bits();
+        let ordered = match bits >> 31 {
+            1 => !bits,
+            _ => bits | 1 << 31,
+        };
+        let turn = b.rotation.abs_diff(rotations / 2) as u64;
+        let off = turn + b.ix.unsigned_abs() + b.iy.unsigned_abs();
+        let near = (1u64 << NEAR_BITS) - 1 - off.min((1 << NEAR_BITS) - 1);
+        Queued {
+            key: (ordered as u64) << 32 | (b.level as u64) << NEAR_BITS | near,
+            rotation: b.rotation as u32,
+            ix: b.ix as i32,
+            iy: b.iy as i32,
+        }
+    }
+
+    pub(super) fn block(&self) -> Block {
+        let bits = (self.key >> 32) as u32;
+        let bits = match bits >> 31 {
+            1 => bits & !(1 << 31),
+            _ => !bits,
+        };
+        Block {
+            rotation: self.rotation as usize,
+            ix: self.ix as i64,
+            iy: self.iy as i64,
+            level: ((self.key >> NEAR_BITS) & 0xff) as u32,
+            bound: f32::from_bits(bits),
+        }
+    }
+}
+
+impl Ord for Queued {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.key.cmp(&other.key)
+    }
+}
+
+impl PartialOrd for Queued {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for Queued {
+    fn eq(&self, other: &Self) -> bool {
+        self.key == other.key
+    }
+}
+
+impl Eq for Queued {}
+
+/// The blocks of a search not opened yet, best bound first; only blocks whose bound reaches
+/// `keep` (a sum of raster values) are queued: no search from this queue asks for less.
+/// `spent` once a search went on depth first from it ([`MAX_QUEUED`]): nothing can go on
+/// from it then.
+#[derive(Debug, Clone, Default)]
+pub(super) struct Frontier {
+    pub(super) queue: BinaryHeap<Queued>,
+    pub(super) keep: f32,
+    pub(super) spent: bool,
+}
+
+impl Frontier {
+    /// The queue of `blocks` (a window's top blocks, of `rotations` rotations) reaching
+    /// `keep`.
+    pub(super) fn of(blocks: &[Block], rotations: usize, keep: f32) -> Self {
+        let queue = blocks
+            .iter()
+            .filter(|b| b.bound >= keep)
+            .map(|b| Queued::of(b, rotations))
+            .collect();
+        Frontier {
+            queue,
+            keep,
+            spent: false,
+        }
+    }
+}
+
+/// One window prepared for one set of points: its rotations and its top blocks.
+#[derive(Debug, Clone)]
+pub(super) struct Prepared {
+    pub(super) rotations: Rotations,
+    pub(super) reach: i64,
+    pub(super) blocks: Vec<Block>,
+    pub(super) points: usize,
+}
+
+impl Prepared {
+    /// The search state over this window with `exclusions`.
+    pub(super) fn context<'a>(
+        &'a self,
+        matcher: &'a CorrelativeMatcher,
+        window: &'a SearchWindow,
+        exclusions: &'a [Exclusion],
+    ) -> Search<'a> {
+        Search {
+            matcher,
+            rotations: &self.rotations,
+            window,
+            reach: self.reach,
+            exclusions,
+        }
+    }
+
+    /// The queue of this window's top blocks reaching `keep` (a sum of raster values).
+    pub(super) fn frontier(&self, keep: f32) -> Frontier {
+        Frontier::of(&self.blocks, self.rotations.len(), keep)
+    }
+
+    /// The sum of raster values a mean score of `min_score` asks for.
+    pub(super) fn floor(&self, min_score: f64) -> f32 {
+        (min_score * self.points as f64) as f32
+    }
+
+    /// The pose and mean score of a leaf found with its sum.
+    pub(super) fn candidate(
+        &self,
+        matcher: &CorrelativeMatcher,
+        window: &SearchWindow,
+        (sum, b): (f32, Block),
+    ) -> Candidate {
+        Candidate {
+            map_from_robot: self.context(matcher, window, &[]).pose(b),
+            score: sum as f64 / self.points as f64,
+        }
+    }
+}
+
+/// The state of one search.
+pub(super) struct Search<'a> {
+    pub(super) matcher: &'a CorrelativeMatcher,
+    pub(super) rotations: &'a Rotations,
+    pub(super) window: &'a SearchWindow,
+    pub(super) reach: i64,
+    pub(super) exclusions: &'a [Exclusion],
+}
+
+impl Search<'_> {
+    /// The best pose left in `frontier` outside the exclusions and reaching `floor` (a sum of
+    /// raster values), as its sum and leaf block: blocks are opened best bound first, so the
+    /// first pose taken scores at least every bound left. Opened and excluded blocks leave the
+    /// queue; children reaching the queue's `keep` join it. Beyond `max_queued` blocks the
+    /// search goes on depth first from the queue, which is then spent.
+    pub(super) fn next(&self, frontier: &mut Frontier, floor: f32) -> Option<(f32, Block)> {
+        while let Some(b) = frontier.queue.peek().map(Queued::block) {
+            if b.bound < floor {
+                return None;
+            }
+            if frontier.queue.len() > self.matcher.max_queued {
+                let queue = std::mem::take(&mut frontier.queue).into_sorted_vec();
+                frontier.spent = true;
+                let mut best = None;
+                for q in queue.iter().rev() {
+                    self.descend(q.block(), floor, &mut best);
+                }
+                return best;
+            }
+            frontier.queue.pop();
+            // A whole block inside an exclusion holds nothing to find (for a single pose, the
+            // pose itself).
+            if self.excluded(&b) {
+                continue;
+            }
+            if b.level == 0 {
+                return Some((b.bound, b));
+            }
+            for child in self.children(&b).into_iter().flatten() {
+                if child.bound >= frontier.keep {
+                    frontier
+                        .queue
+                        .push(Queued::of(&child, self.rotations.len()));
+                }
+            }
+        }
+        None
+    }
+
+    /// The four blocks of the level below `b` (level > 0) that lie in the window.
+    pub(super) fn children(&self, b: &Block) -> [Option<Block>; 4] {
+        let size = 1i64 << (b.level - 1);
+        [(0, 0), (size, 0), (0, size), (size, size)].map(|(dx, dy)| {
+            let (ix, iy) = (b.ix + dx, b.iy + dy);
+            (ix <= self.reach && iy <= self.reach).then(|| {
+                self.matcher
+                    .block(self.rotations, b.rotation, ix, iy, b.level - 1)
+            })
+        })
+    }
+
+    /// Depth first below `b`: the best pose outside the exclusions beating `best` (or reaching
+    /// `floor` while there is none) goes to `best`; children are opened best bound first.
+    pub(super) fn descend(&self, b: Block, floor: f32, best: &mut Option<(f32, Block)>) {
+        let beats = match best {
+            Some((sum, _)) => b.bound > *sum,
+            None => b.bound >= floor,
+        };
+        if !beats || self.excluded(&b) {
+            return;
+        }
+        if b.level == 0 {
+            *best = Some((b.bound, b));
+            return;
+        }
+        let mut children = self.children(&b);
+        let bound = |c: &Option<Block>| c.map_or(f32::NEG_INFINITY, |c| c.bound);
+        children.sort_by(|a, b| bound(b).total_cmp(&bound(a)));
+        for c in children.iter().flatten() {
+            self.descend(*c, floor, best);
+        }
+    }
+
+    /// The pose of a block's lowest offset.
+    pub(super) fn pose(&self, b: Block) -> Pose2 {
+        let cell = self.matcher.raster.cell_m();
+        let c = self.window.center;
+        Pose2::new(
+            c.x_m + b.ix as f64 * cell,
+            c.y_m + b.iy as f64 * cell,
+            self.rotations.theta_rad[b.rotation],
+        )
+    }
+
+    /// Whether the block lies wholly inside an exclusion (its four corner offsets do: the
+    /// exclusion's disc is convex).
+    pub(super) fn excluded(&self, b: &Block) -> bool {
+        if self.exclusions.is_empty() {
+            return false;
+        }
+        let cell = self.matcher.raster.cell_m();
+        let span = ((1i64 << b.level) - 1) as f64 * cell;
+        let p = self.pose(*b);
+        self.exclusions.iter().any(|e| {
+            let turned = normalize_angle_rad(p.theta_rad - e.center.theta_rad).abs();
+            if turned > e.radius_rad {
+                return false;
+            }
+            let corners = [(0.0, 0.0), (span, 0.0), (0.0, span), (span, span)];
+            corners.iter().all(|(dx, dy)| {
+                Vec2::new(p.x_m + dx, p.y_m + dy).distance(e.center.translation()) <= e.radius_m
+            })
+        })
+    }
+}
+
+/// `floor(v)` clamped to `±clamp` (at most 2³⁰), as an `i32`: the same cell as
+/// [`crate::geometry::floor_i64`] then a clamp, 0 for NaN, without branches.
+#[inline]
+pub(super) fn clamped_floor(v: f64, clamp: f64) -> i32 {
+    let v = v.clamp(-clamp, clamp);
+    let t = v as i32;
+    t - ((t as f64) > v) as i32
+}
+
+pub(super) fn ceil_log2(n: i64) -> u32 {
+    let mut level = 0;
+    while (1i64 << level) < n {
+        level += 1;
+    }
+    level
+}
