@@ -38,6 +38,9 @@ fn layered(preset: Config, path: &Path) -> Result<Config> {
         .with_context(|| format!("{}: cannot read", path.display()))?;
     let file: toml::Table =
         toml::from_str(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    crate::old_keys::refuse_old_keys(&file).map_err(|e| anyhow!("{}: {e}", path.display()))?;
+    // The file alone first: an unknown key is then reported with its line.
+    toml::from_str::<Config>(&text).map_err(|e| anyhow!("{}: {e}", path.display()))?;
     let mut merged = toml::Table::try_from(&preset).context("cannot write the preset as TOML")?;
     merge(&mut merged, file);
     merged
@@ -93,6 +96,31 @@ mod tests {
         std::fs::write(&path, vec![b'#'; MAX_CONFIG_BYTES as usize + 1]).unwrap();
         let e = effective_config("default", &[path], false).unwrap_err();
         assert!(format!("{e:#}").contains("more than"), "{e:#}");
+    }
+
+    /// A file written for the flat `[tracking]` is refused with the key and its new place;
+    /// an unknown key with its line.
+    #[test]
+    fn an_old_or_unknown_key_is_named() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("old.toml");
+        std::fs::write(&path, "[tracking]\nmax_speed_m_s = 1.0\n").unwrap();
+        let e = effective_config("default", std::slice::from_ref(&path), false).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("`tracking.max_speed_m_s` is moved: write it under `[tracking.reach]`"),
+            "{e}"
+        );
+        std::fs::write(&path, "[tracking.reach]\nmax_speed_m_s = 1.0\n").unwrap();
+        let c = effective_config("default", std::slice::from_ref(&path), false).unwrap();
+        assert_eq!(c.tracking.reach.max_speed_m_s, 1.0);
+        std::fs::write(&path, "[tracking.reach]\nmax_speed = 1.0\n").unwrap();
+        let e = effective_config("default", &[path], false).unwrap_err();
+        let e = e.to_string();
+        assert!(
+            e.contains("line 2") && e.contains("unknown field `max_speed`"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -27,6 +27,7 @@ mod info_cmd;
 mod interrupt;
 mod map_cmd;
 mod merge_cmd;
+mod old_keys;
 mod outputs;
 mod quote;
 #[cfg(feature = "ros2")]

@@ -706,7 +706,7 @@ fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
     crate::warnings::warn_tracking(
         run.mapper.tracking_summary(),
         run.trajectory.len(),
-        run.mapper.config().tracking.odometry_witness_m,
+        run.mapper.config().tracking.odometry.odometry_witness_m,
     );
     crate::warnings::warn_odometry(run.mapper.tracking_summary(), a.odometry);
     crate::warnings::warn_consistency(run.history.map_consistency.as_ref());

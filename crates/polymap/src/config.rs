@@ -11,7 +11,7 @@ use crate::map::MapParams;
 use crate::merge::MergeParams;
 use crate::observe::ObserveParams;
 use crate::polyline::PolylineParams;
-use crate::tracking::{MapperParams, MotionPrior, TrackParams};
+use crate::tracking::{MapperParams, MotionPrior, TrackParams, WindowSearchParams};
 
 /// Every parameter of the pipeline, one section per stage.
 ///
@@ -80,7 +80,6 @@ impl Config {
             mapper: MapperParams {
                 motion_prior: MotionPrior::Previous,
                 also_start_at_anchor: false,
-                weak_direction_velocity: 0.0,
                 keep_observed_velocity: false,
                 recover_below_inlier_share: 0.0,
                 ..d.mapper
@@ -90,7 +89,10 @@ impl Config {
                 ..d.loops
             },
             tracking: TrackParams {
-                window_search: false,
+                search: WindowSearchParams {
+                    enabled: false,
+                    ..d.tracking.search
+                },
                 ..d.tracking
             },
             ..d
@@ -147,36 +149,50 @@ mod tests {
         }
     }
 
-    /// Every numeric key of every section has a range: some value of it is refused, and the
-    /// error names that key (a key nobody checks would pass).
+    /// The numeric keys under `tree` (subsections included), each as its path of names.
+    fn numeric_keys(tree: &serde_json::Value, path: &mut Vec<String>, out: &mut Vec<Vec<String>>) {
+        for (key, value) in tree.as_object().unwrap() {
+            path.push(key.clone());
+            if value.is_object() {
+                numeric_keys(value, path, out);
+            } else if value.is_f64() || value.is_u64() {
+                out.push(path.clone());
+            }
+            path.pop();
+        }
+    }
+
+    /// Every numeric key of every section and subsection has a range: some value of it is
+    /// refused, and the error names that key (a key nobody checks would pass).
     #[test]
     fn every_key_is_checked() {
         let tree = serde_json::to_value(Config::default()).unwrap();
-        let mut keys = 0;
-        for (section, table) in tree.as_object().unwrap() {
-            for (key, value) in table.as_object().unwrap() {
-                let tries: Vec<serde_json::Value> = if value.is_f64() {
-                    vec![(-1.0).into()]
-                } else if value.is_u64() {
-                    vec![0.into(), 1_000_000_000_000u64.into(), u32::MAX.into()]
-                } else {
-                    continue;
+        let mut keys = Vec::new();
+        numeric_keys(&tree, &mut Vec::new(), &mut keys);
+        for path in &keys {
+            let pointer = format!("/{}", path.join("/"));
+            let tries: Vec<serde_json::Value> = if tree.pointer(&pointer).unwrap().is_f64() {
+                vec![(-1.0).into()]
+            } else {
+                vec![0.into(), 1_000_000_000_000u64.into(), u32::MAX.into()]
+            };
+            let name = path.join(".");
+            let refused = tries.into_iter().any(|v| {
+                let mut t = tree.clone();
+                *t.pointer_mut(&pointer).unwrap() = v;
+                let c: Config = match serde_json::from_value(t) {
+                    Ok(c) => c,
+                    Err(_) => return false,
                 };
-                keys += 1;
-                let refused = tries.into_iter().any(|v| {
-                    let mut t = tree.clone();
-                    t[section][key] = v;
-                    let c: Config = match serde_json::from_value(t) {
-                        Ok(c) => c,
-                        Err(_) => return false,
-                    };
-                    c.validate()
-                        .is_err_and(|e| e.key == format!("{section}.{key}"))
-                });
-                assert!(refused, "{section}.{key} accepts every value tried");
-            }
+                c.validate().is_err_and(|e| e.key == name)
+            });
+            assert!(refused, "{name} accepts every value tried");
         }
-        assert!(keys >= 80, "only {keys} numeric keys found");
+        assert!(keys.len() >= 60, "only {} numeric keys found", keys.len());
+        assert!(
+            keys.iter().any(|p| p.len() == 3),
+            "no key of a subsection found"
+        );
     }
 
     /// Zero ICP iterations are refused: they make mapping take minutes.

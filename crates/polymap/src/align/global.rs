@@ -32,7 +32,7 @@ pub struct GlobalSearch {
 
 impl GlobalSearch {
     /// Prepares `map` on a raster of `cell_m` cells with a kernel of scale `sigma_m` (metres;
-    /// tracking uses `tracking.search_cell_m` and `tracking.search_sigma_m`); `None` for an
+    /// tracking uses `SEARCH_CELL_M` and `SEARCH_SIGMA_M`); `None` for an
     /// empty map.
     pub fn new(map: &GlobalMap, cell_m: f64, sigma_m: f64) -> Option<Self> {
         let (lo, hi) = map_bounds(map)?;
@@ -51,7 +51,7 @@ impl GlobalSearch {
     }
 
     /// The best `max_peaks` distinct poses (`apart`: more than that many metres or radians
-    /// from each other; tracking uses `tracking.rival_apart_m` and `rival_apart_deg`) of
+    /// from each other; tracking uses `tracking.verdict.rival_apart_m` and `rival_apart_deg`) of
     /// `points_in_robot` anywhere in the map, or near `hint` when one is given (within
     /// `hint_m` and `hint_rad`), best first. Empty for an empty scan, or when nothing scores
     /// [`GLOBAL_MIN_SCORE`].

@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::align::points_along;
+use crate::tracking::{SEARCH_CELL_M, SEARCH_SIGMA_M};
 
 /// A start given by the user is searched within this distance (each axis), metres...
 const NEAR_START_M: f64 = 1.0;
@@ -99,11 +100,14 @@ impl Mapper {
             _ => None,
         };
         if self.search.is_none() {
-            let (cell_m, sigma_m) = (params.search_cell_m, params.search_sigma_m);
+            let (cell_m, sigma_m) = (SEARCH_CELL_M, SEARCH_SIGMA_M);
             self.search = GlobalSearch::new(&self.map, cell_m, sigma_m).map(Box::new);
         }
         let range_m = PLACE_RANGE_M;
-        let apart = (params.rival_apart_m, params.rival_apart_deg.to_radians());
+        let apart = (
+            params.verdict.rival_apart_m,
+            params.verdict.rival_apart_deg.to_radians(),
+        );
         let peaks = match &self.search {
             Some(search) => search.peaks(&points, hint, PLACE_PEAKS, range_m, apart),
             None => Vec::new(),
@@ -143,7 +147,7 @@ impl Mapper {
         let mut tracking = verdict(Some(&best), points.len(), false, &params);
         tracking.searched = true;
         tracking.search_won = true;
-        if rival.is_some_and(|n| n as f64 >= params.ambiguous_above * best.inliers as f64) {
+        if rival.is_some_and(|n| n as f64 >= params.verdict.ambiguous_above * best.inliers as f64) {
             tracking.verdict = Verdict::Lost;
             tracking.reason = Reason::Ambiguous;
         } else if tracking.verdict != Verdict::Ok {

@@ -366,7 +366,7 @@ fn drive_witnessed(
 /// The default configuration with the odometry witness at `witness_m` (0: off).
 fn witnessed_at(witness_m: f64) -> Config {
     let mut config = Config::default();
-    config.tracking.odometry_witness_m = witness_m;
+    config.tracking.odometry.odometry_witness_m = witness_m;
     config
 }
 

@@ -10,6 +10,7 @@ use super::window::{search_raster, search_sample};
 use crate::align::{Candidate, GlobalParams, best_distinct, corners, hypotheses, raster_score};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
+use crate::tracking::params::{CORNER_MIN_SEGMENT_M, CORNER_REACH_M, CORNER_SEEDS, SEARCH_SIGMA_M};
 
 /// A scan's corners come from at most this many of its longest segments (a bound on the
 /// hypotheses: a scan has a few dozen).
@@ -17,13 +18,13 @@ const SCAN_CORNER_SEGMENTS: usize = 30;
 
 /// The best-scoring distinct poses (more than `rival_apart_m` or `rival_apart_deg` apart, at
 /// most `corner_seeds`, best first) that put a corner of the scan (`segments_in_robot`, robot
-/// frame) on a corner of the map, with the robot within `corner_reach_m` of `prediction`,
+/// frame) on a corner of the map, with the robot within [`CORNER_REACH_M`] of `prediction`,
 /// scored like the window search (the mean search-raster value of the scan's points,
 /// `points_in_robot`, on the map's segments and the loose points it leaves unexplained, map
 /// frame). Only poses scoring above `beat` (ICP's pose) are kept. Empty when the scan or the
 /// map near has no corner.
 ///
-/// Corners are formed from segments at least `corner_min_segment_m` long, at least 30° from
+/// Corners are formed from segments at least [`CORNER_MIN_SEGMENT_M`] long, at least 30° from
 /// parallel, whose lines cross within 1 m of both, and matched when their angles agree within
 /// 4° ([`GlobalParams`]' defaults, as for merging maps). At most the
 /// `SCAN_CORNER_SEGMENTS` (30) longest segments of the scan take part, and the
@@ -43,14 +44,14 @@ pub fn corner_seeds(
     let corners_of = |segments: &[Segment], max_segments: usize| {
         corners(
             segments,
-            params.corner_min_segment_m,
+            CORNER_MIN_SEGMENT_M,
             max_segments,
             corner.min_corner_angle_deg.to_radians(),
             corner.corner_reach_m,
         )
     };
     let scan_corners = corners_of(segments_in_robot, SCAN_CORNER_SEGMENTS);
-    let sample = search_sample(points_in_robot, params);
+    let sample = search_sample(points_in_robot);
     if scan_corners.is_empty() || sample.is_empty() {
         return Vec::new();
     }
@@ -59,12 +60,12 @@ pub fn corner_seeds(
     // its right pose when only corners within 8 m took part).
     let center = prediction.translation();
     let sample_reach = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
-    let raster_margin = Vec2::splat(params.corner_reach_m + sample_reach + params.search_sigma_m);
+    let raster_margin = Vec2::splat(CORNER_REACH_M + sample_reach + SEARCH_SIGMA_M);
     let far = scan_corners
         .iter()
         .map(|c| c.point.length())
         .fold(0.0, f64::max);
-    let corner_margin = Vec2::splat(params.corner_reach_m + far + corner.corner_reach_m);
+    let corner_margin = Vec2::splat(CORNER_REACH_M + far + corner.corner_reach_m);
     let near: Vec<Segment> = map
         .query(center - corner_margin, center + corner_margin)
         .into_iter()
@@ -74,31 +75,24 @@ pub fn corner_seeds(
     let map_corners = corners_of(&near, corner.max_segments);
     let poses: Vec<Pose2> = hypotheses(&map_corners, &scan_corners, &corner)
         .into_iter()
-        .filter(|p| p.translation().distance(center) <= params.corner_reach_m)
+        .filter(|p| p.translation().distance(center) <= CORNER_REACH_M)
         .collect();
     if poses.is_empty() {
         return Vec::new();
     }
     let (lo, hi) = (center - raster_margin, center + raster_margin);
-    let Some(raster) = search_raster(map, loose_points_in_map, lo, hi, params) else {
+    let Some(raster) = search_raster(map, loose_points_in_map, lo, hi) else {
         return Vec::new();
     };
     let floor = beat.map_or(0.0, |p| raster_score(&raster, &sample, p));
     let distinct = |a: &Pose2, b: &Pose2| params.apart(a, b);
-    best_distinct(
-        &raster,
-        &sample,
-        &poses,
-        floor,
-        params.corner_seeds,
-        distinct,
-    )
-    .into_iter()
-    .map(|(score, map_from_robot)| Candidate {
-        map_from_robot,
-        score,
-    })
-    .collect()
+    best_distinct(&raster, &sample, &poses, floor, CORNER_SEEDS, distinct)
+        .into_iter()
+        .map(|(score, map_from_robot)| Candidate {
+            map_from_robot,
+            score,
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -129,14 +123,15 @@ mod tests {
             Some(&prediction),
             &params,
         );
-        assert!(!seeds.is_empty() && seeds.len() <= params.corner_seeds);
+        assert!(!seeds.is_empty() && seeds.len() <= CORNER_SEEDS);
         let best = seeds[0].map_from_robot;
         let d = truth.between(&best);
         assert!(
             d.translation().length() < 0.05 && d.theta_rad.abs() < 0.02,
             "{best:?} against {truth:?}"
         );
-        // Beyond the reach, nothing: the map is near, but the truth is 3.4 m from the guess.
+        // Beyond the reach (`CORNER_REACH_M`), nothing: the map is near, but the truth is
+        // 3.4 m from the guess.
         let near_truth = |seeds: &[Candidate]| {
             seeds.iter().any(|c| {
                 let d = truth.between(&c.map_from_robot);
@@ -144,13 +139,8 @@ mod tests {
             })
         };
         let beyond = Pose2::new(1.3, 0.2, 0.0);
+        assert!(beyond.translation().distance(truth.translation()) > CORNER_REACH_M);
         let seeds = corner_seeds(&map, &[], &points, &scan_segments, &beyond, None, &params);
         assert!(!near_truth(&seeds), "{seeds:?}");
-        let farther = TrackParams {
-            corner_reach_m: 4.0,
-            ..params.clone()
-        };
-        let seeds = corner_seeds(&map, &[], &points, &scan_segments, &beyond, None, &farther);
-        assert!(near_truth(&seeds), "{seeds:?}");
     }
 }

@@ -10,8 +10,8 @@
 //!
 //! Parts: `tracker.rs` (the state), `speed.rs` (the speed last observed, gaps in the log),
 //! `strategy/` (one scan: `starts.rs`, `search.rs`, `axes.rs`, `hypotheses.rs`), `window.rs`
-//! (when and how wide to search), `verdict.rs`, `summary.rs`, `params.rs` (`[tracking]` and
-//! `[mapper]`), `recent.rs`, `corner_seeds.rs`.
+//! (when and how wide to search), `verdict.rs`, `summary.rs`, `params/` (`[tracking]` and
+//! `[mapper]`, the fixed values), `recent.rs`, `corner_seeds.rs`.
 
 mod corner_seeds;
 mod params;
@@ -24,7 +24,15 @@ mod verdict;
 mod window;
 
 pub use corner_seeds::corner_seeds;
-pub use params::{MapperParams, MotionPrior, TrackParams};
+pub use params::{
+    CORNER_MIN_SEGMENT_M, CORNER_REACH_M, CORNER_RIVAL_BELOW, CORNER_SEEDS, CORNER_WIN_RATIO,
+    LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, LOST_WINDOW_GROWTH_M, LOST_WINDOW_MAX_M,
+    MapperParams, MotionPrior, OdometryCheckParams, REACH_SLACK_DEG, REACH_SLACK_M,
+    RELOCALIZE_EVERY_LOST, ReachParams, SEARCH_CELL_M, SEARCH_MAX_RANGE_M, SEARCH_POINTS,
+    SEARCH_SIGMA_M, SEARCH_SKIP_ABOVE_INLIER_SHARE, SEARCH_WIN_MARGIN, START_SCORE_MARGIN,
+    TrackParams, UNOBSERVED_REACH_M, VerdictParams, WEAK_DIRECTION_VELOCITY, WINDOW_DEG_PER_M,
+    WINDOW_PER_RECENT, WINDOW_PER_STEP, WINDOW_PER_TURN, WindowSearchParams,
+};
 pub use recent::{LOOSE_OFF_MAP_M, LoosePoints, RecentMotion};
 pub use strategy::{
     PINNED_BELOW_INFORMATION, PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M,

@@ -42,7 +42,7 @@ pub struct TrackingSummary {
     pub tracked_travel_m: f64,
     /// Without the odometry prior, while the log's odometry agrees with the scans
     /// ([`TrackingSummary::odometry_agrees_with_travel`]): the scans not lost whose tracked
-    /// step lies more than `tracking.odometry_witness_m` from the odometry's and from its
+    /// step lies more than `tracking.odometry.odometry_witness_m` from the odometry's and from its
     /// reverse ([`OdometryWitness`](super::OdometryWitness)), whatever their verdict (an `ok` one becomes `weak`,
     /// `off_odometry`); one slip of the odometry counts twice, the step to it and from it.
     /// Where sparse scans leave a corridor tracked short (`weakly_observed` scans, which do

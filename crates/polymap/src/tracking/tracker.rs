@@ -14,6 +14,7 @@ use crate::align::{AlignParams, AlignResult, thin_points};
 use crate::geometry::Pose2;
 use crate::map::GlobalMap;
 use crate::scan::PreparedScan;
+use crate::tracking::params::{LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, WEAK_DIRECTION_VELOCITY};
 
 /// Where a scan stands in the two numberings of a run: `run` counts this run's scans from 0
 /// (the numbering of [`TrackingSummary`]); `map` counts every scan of the map's runs (a
@@ -217,7 +218,7 @@ impl Tracker {
             if after_gap {
                 self.summary.count_gap(i);
             }
-            let off = self.tracking.odometry_witness_m;
+            let off = self.tracking.odometry.odometry_witness_m;
             off_odometry = !lost && prior.witness.is_some_and(|w| w.contradicts(&pose, off));
             if off_odometry {
                 self.summary.count_off_odometry(i);
@@ -264,12 +265,12 @@ impl Tracker {
         // nor observes the map (see-through counts prune walls).
         let enters_map = tracking.enters_map(self.tracking.merge_doubtful_scans);
         if enters_map {
-            let spacing = self.tracking.loose_point_spacing_m;
+            let spacing = LOOSE_POINT_SPACING_M;
             let loose = thin_points(&scan.points_in_robot, spacing)
                 .into_iter()
                 .map(|p| pose.transform_point(p))
                 .collect();
-            self.loose.push(loose, self.tracking.loose_point_scans);
+            self.loose.push(loose, LOOSE_POINT_SCANS);
         }
         TrackedScan {
             map_from_robot: pose,
@@ -287,7 +288,7 @@ impl Tracker {
     /// The constant-velocity guess seeds ICP. With `keep_observed_velocity` (once a motion was
     /// observed), the fallback is the previous pose moved by the last observed motion; a motion
     /// taken from the prior never feeds back, so it cannot run on by itself. Otherwise the fallback keeps
-    /// `weak_direction_velocity` of the last motion (0: the previous pose). The odometry guess
+    /// [`WEAK_DIRECTION_VELOCITY`] of the last motion (0: the previous pose). The odometry guess
     /// is evidence of motion and is its own anchor and fallback.
     ///
     /// Without odometry, a scan after a gap in a log whose stamps keep time
@@ -323,7 +324,7 @@ impl Tracker {
                         (predicted, last, last.compose(&over_gap))
                     }
                     _ => {
-                        let f = self.starts.weak_direction_velocity.clamp(0.0, 1.0);
+                        let f = WEAK_DIRECTION_VELOCITY.clamp(0.0, 1.0);
                         let damped =
                             last.compose(&Pose2::new(v.x_m * f, v.y_m * f, v.theta_rad * f));
                         (predicted, damped, damped)
@@ -349,12 +350,12 @@ impl Tracker {
     }
 
     /// The log's odometry as a witness of the step to a scan whose odometry pose is
-    /// `odom_from_robot` (`tracking.odometry_witness_m`): from the previous scan, or after lost
+    /// `odom_from_robot` (`tracking.odometry.odometry_witness_m`): from the previous scan, or after lost
     /// scans from the last `ok` one; without the odometry prior, while its travel agrees with
     /// the scans' ([`TrackingSummary::odometry_agrees_with_travel`], judged at every scan).
     fn odometry_witness(&self, odom_from_robot: Option<Pose2>) -> Option<OdometryWitness> {
         let on = self.starts.motion_prior != MotionPrior::Odometry
-            && self.tracking.odometry_witness_m > 0.0
+            && self.tracking.odometry.odometry_witness_m > 0.0
             && self
                 .summary
                 .odometry_agrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M);

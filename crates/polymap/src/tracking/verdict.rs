@@ -38,14 +38,14 @@ pub enum Reason {
     /// Enough points fit, but some direction was unobservable (a bare corridor).
     Degenerate,
     /// Enough points fit, but one direction is observed by few of them (a corridor with little
-    /// across it): the pose may have slid along it (`tracking.weak_below_information`).
+    /// across it): the pose may have slid along it (`tracking.verdict.weak_below_information`).
     WeaklyObserved,
     /// Enough points fit, but a robot that moved fast lately was put near "no motion" along a
-    /// direction observed by few of them (`tracking.slowed_below_information`): its step may
+    /// direction observed by few of them (`tracking.verdict.slowed_below_information`): its step may
     /// have been pulled short.
     Slowed,
     /// Enough points fit, but without the odometry prior the log's odometry, which has agreed
-    /// with the scans so far, puts the step more than `tracking.odometry_witness_m` from the
+    /// with the scans so far, puts the step more than `tracking.odometry.odometry_witness_m` from the
     /// one tracked ([`OdometryWitness`]): the scans or the odometry slipped there.
     OffOdometry,
     /// Enough points fit to keep the scan, too few to trust it.
@@ -173,15 +173,17 @@ pub fn verdict(
     };
     let share = r.inliers as f64 / thinned_points.max(1) as f64;
     let ratio = r.inliers as f64 / r.correspondences.max(1) as f64;
-    let (verdict, reason) = if share < params.lost_below_inlier_share {
+    let (verdict, reason) = if share < params.verdict.lost_below_inlier_share {
         (Verdict::Lost, Reason::TooFewInliers)
-    } else if ratio < params.lost_below_inlier_ratio {
+    } else if ratio < params.verdict.lost_below_inlier_ratio {
         (Verdict::Lost, Reason::Contradicted)
-    } else if share < params.weak_below_inlier_share || ratio < params.weak_below_inlier_ratio {
+    } else if share < params.verdict.weak_below_inlier_share
+        || ratio < params.verdict.weak_below_inlier_ratio
+    {
         (Verdict::Weak, Reason::PoorFit)
     } else if r.weak_directions > 0 {
         (Verdict::Weak, Reason::Degenerate)
-    } else if r.translation_information.weakest < params.weak_below_information {
+    } else if r.translation_information.weakest < params.verdict.weak_below_information {
         (Verdict::Weak, Reason::WeaklyObserved)
     } else {
         (Verdict::Ok, Reason::Fit)

@@ -15,10 +15,15 @@ use crate::align::{
 };
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::map::GlobalMap;
+use crate::tracking::params::{
+    LOST_WINDOW_GROWTH_M, LOST_WINDOW_MAX_M, SEARCH_CELL_M, SEARCH_MAX_RANGE_M, SEARCH_POINTS,
+    SEARCH_SIGMA_M, SEARCH_SKIP_ABOVE_INLIER_SHARE, WINDOW_DEG_PER_M, WINDOW_PER_RECENT,
+    WINDOW_PER_STEP, WINDOW_PER_TURN,
+};
 
 /// Whether the window search should run: large motion (predicted, or of any of the last few
 /// scans: a robot that moves far per scan may stop or turn at any scan) unless ICP's pose fits
-/// at least `search_skip_above_inlier_share` of the points, a poor fit, or lost before.
+/// at least [`SEARCH_SKIP_ABOVE_INLIER_SHARE`] of the points, a poor fit, or lost before.
 pub fn should_search(
     prediction: &Pose2,
     anchor: &Pose2,
@@ -28,7 +33,7 @@ pub fn should_search(
     lost_streak: u32,
     params: &TrackParams,
 ) -> bool {
-    if !params.window_search || thinned_points == 0 {
+    if !params.search.enabled || thinned_points == 0 {
         return false;
     }
     let motion = anchor.between(prediction);
@@ -38,10 +43,11 @@ pub fn should_search(
         .to_degrees()
         .max(recent.turn_deg());
     let share = icp.map_or(0.0, |r| r.inliers as f64 / thinned_points as f64);
-    let moved = step_m > params.search_above_step_m || turn_deg > params.search_above_turn_deg;
+    let moved = step_m > params.search.search_above_step_m
+        || turn_deg > params.search.search_above_turn_deg;
     lost_streak > 0
-        || (moved && share < params.search_skip_above_inlier_share)
-        || share < params.search_below_inlier_share
+        || (moved && share < SEARCH_SKIP_ABOVE_INLIER_SHARE)
+        || share < params.search.search_below_inlier_share
 }
 
 /// The window around `prediction`: wider for a larger predicted motion, and for every scan lost
@@ -58,32 +64,41 @@ pub fn search_window(
 ) -> SearchWindow {
     let motion = anchor.between(prediction);
     if lost_streak > 0 {
-        let half = params.max_window_m + params.lost_window_growth_m * lost_streak as f64;
+        let half = params.search.max_window_m + LOST_WINDOW_GROWTH_M * lost_streak as f64;
         return SearchWindow {
             center: *prediction,
-            half_xy_m: half.min(params.lost_window_max_m.max(params.max_window_m)),
+            half_xy_m: half.min(LOST_WINDOW_MAX_M.max(params.search.max_window_m)),
             half_theta_rad: std::f64::consts::PI,
         };
     }
+    let per_recent = match params.recent_window {
+        true => WINDOW_PER_RECENT,
+        false => 0.0,
+    };
     let step = motion
         .translation()
         .length()
-        .max(params.window_per_recent * recent.step_m());
+        .max(per_recent * recent.step_m());
     let turn_deg = normalize_angle_rad(motion.theta_rad)
         .abs()
         .to_degrees()
-        .max(params.window_per_recent * recent.turn_deg());
-    let half_xy = (params.min_window_m + params.window_per_step * step).clamp(
-        params.min_window_m,
-        params.max_window_m.max(params.min_window_m),
+        .max(per_recent * recent.turn_deg());
+    let half_xy = (params.search.min_window_m + WINDOW_PER_STEP * step).clamp(
+        params.search.min_window_m,
+        params.search.max_window_m.max(params.search.min_window_m),
     );
-    let half_deg = (params.min_window_deg
-        + params.window_per_turn * turn_deg
-        + params.window_deg_per_m * step)
-        .clamp(params.min_window_deg, params.widest_window_deg(odometry))
+    let half_deg = (params.search.min_window_deg
+        + WINDOW_PER_TURN * turn_deg
+        + WINDOW_DEG_PER_M * step)
+        .clamp(
+            params.search.min_window_deg,
+            params.widest_window_deg(odometry),
+        )
         // The anchor's heading stays inside the window: a predicted turn beyond the widest
         // window (a turn the last step took, perhaps wrongly) must not exclude no turn.
-        .max(normalize_angle_rad(motion.theta_rad).abs().to_degrees() + params.min_window_deg)
+        .max(
+            normalize_angle_rad(motion.theta_rad).abs().to_degrees() + params.search.min_window_deg,
+        )
         .min(180.0);
     SearchWindow {
         center: *prediction,
@@ -104,7 +119,7 @@ pub struct WindowMatch {
     pub best: Candidate,
     matcher: CorrelativeMatcher,
     found: WindowBest,
-    /// How far apart a rival is (`tracking.rival_apart_m`, `rival_apart_deg` in radians).
+    /// How far apart a rival is (`tracking.verdict.rival_apart_m`, `rival_apart_deg` in radians).
     apart: (f64, f64),
 }
 
@@ -121,21 +136,21 @@ impl WindowMatch {
     }
 }
 
-/// The scan points (robot frame) a search scores: about `search_points` of them, only those
-/// within `search_max_range_m` unless fewer than 20 are. Far points sharpen the rotation but
+/// The scan points (robot frame) a search scores: about [`SEARCH_POINTS`] of them, only those
+/// within [`SEARCH_MAX_RANGE_M`] unless fewer than 20 are. Far points sharpen the rotation but
 /// widen the raster (its cost).
-pub(super) fn search_sample(points_in_robot: &[Vec2], params: &TrackParams) -> Vec<Vec2> {
+pub(super) fn search_sample(points_in_robot: &[Vec2]) -> Vec<Vec2> {
     let near: Vec<Vec2> = points_in_robot
         .iter()
         .copied()
-        .filter(|p| p.length() <= params.search_max_range_m)
+        .filter(|p| p.length() <= SEARCH_MAX_RANGE_M)
         .collect();
     let points = if near.len() >= 20 {
         &near[..]
     } else {
         points_in_robot
     };
-    score_sample_n(points, params.search_points)
+    score_sample_n(points, SEARCH_POINTS)
 }
 
 /// The search raster over the box `lo`..`hi` (map frame, metres): the map's segments there and
@@ -145,9 +160,8 @@ pub(super) fn search_raster(
     loose_points_in_map: &[Vec2],
     lo: Vec2,
     hi: Vec2,
-    params: &TrackParams,
 ) -> Option<ScoreRaster> {
-    let mut raster = ScoreRaster::new(lo, hi, params.search_cell_m, params.search_sigma_m);
+    let mut raster = ScoreRaster::new(lo, hi, SEARCH_CELL_M, SEARCH_SIGMA_M);
     let mut any = false;
     for id in map.query(lo, hi) {
         if let Some(s) = map.get(id) {
@@ -183,14 +197,14 @@ pub fn window_search(
     seed: Option<Pose2>,
     params: &TrackParams,
 ) -> Option<WindowMatch> {
-    let sample = search_sample(points_in_robot, params);
+    let sample = search_sample(points_in_robot);
     let reach_m = sample.iter().map(|p| p.length()).fold(0.0, f64::max);
-    let margin = Vec2::splat(window.half_xy_m + reach_m + params.search_sigma_m);
+    let margin = Vec2::splat(window.half_xy_m + reach_m + SEARCH_SIGMA_M);
     let (lo, hi) = (
         window.center.translation() - margin,
         window.center.translation() + margin,
     );
-    let raster = search_raster(map, loose_points_in_map, lo, hi, params)?;
+    let raster = search_raster(map, loose_points_in_map, lo, hi)?;
     let seeded = seed.map(|pose| Candidate {
         map_from_robot: pose,
         score: sample
@@ -201,12 +215,21 @@ pub fn window_search(
     });
     let floor = seeded.map_or(MIN_SCORE, |c| c.score.max(MIN_SCORE));
     let matcher = CorrelativeMatcher::for_window(raster, window.half_xy_m);
-    let found = matcher.window_best(&sample, window, floor, seeded, params.ambiguous_above)?;
+    let found = matcher.window_best(
+        &sample,
+        window,
+        floor,
+        seeded,
+        params.verdict.ambiguous_above,
+    )?;
     Some(WindowMatch {
         best: found.best,
         matcher,
         found,
-        apart: (params.rival_apart_m, params.rival_apart_deg.to_radians()),
+        apart: (
+            params.verdict.rival_apart_m,
+            params.verdict.rival_apart_deg.to_radians(),
+        ),
     })
 }
 
@@ -233,8 +256,8 @@ mod tests {
         let p = TrackParams::default();
         let anchor = Pose2::IDENTITY;
         let still = search_window(&anchor, &anchor, &RecentMotion::default(), 0, false, &p);
-        assert_eq!(still.half_xy_m, p.min_window_m);
-        assert!((still.half_theta_rad.to_degrees() - p.min_window_deg).abs() < 1e-9);
+        assert_eq!(still.half_xy_m, p.search.min_window_m);
+        assert!((still.half_theta_rad.to_degrees() - p.search.min_window_deg).abs() < 1e-9);
         let fast = Pose2::new(0.5, 0.0, 30f64.to_radians());
         let w = search_window(&fast, &anchor, &RecentMotion::default(), 0, false, &p);
         assert!((w.half_xy_m - 0.8).abs() < 1e-9);
@@ -263,7 +286,7 @@ mod tests {
         assert!((lost.half_xy_m - 2.5).abs() < 1e-9);
         assert_eq!(lost.half_theta_rad, std::f64::consts::PI);
         // A robot that stood still for a scan after moving fast: the window of its recent
-        // motion (0.5 m, 30°), and of the prediction alone without `window_per_recent`.
+        // motion (0.5 m, 30°), and of the prediction alone without `recent_window`.
         let mut moved = RecentMotion::default();
         moved.push(&anchor, &fast);
         moved.push(&fast, &fast);
@@ -274,7 +297,7 @@ mod tests {
             (w.half_xy_m, w.half_theta_rad)
         );
         let alone = TrackParams {
-            window_per_recent: 0.0,
+            recent_window: false,
             ..p.clone()
         };
         assert_eq!(
@@ -319,8 +342,8 @@ mod tests {
             0,
             &p
         ));
-        // ...but not when ICP's pose fits nearly every point (`search_skip_above_inlier_share`),
-        // unless that is off.
+        // ...but not when ICP's pose fits nearly every point
+        // (`SEARCH_SKIP_ABOVE_INLIER_SHARE`), only when it fits fewer.
         let sure = AlignResult {
             inliers: 10,
             ..good
@@ -334,18 +357,14 @@ mod tests {
             0,
             &p
         ));
-        let always = TrackParams {
-            search_skip_above_inlier_share: 10.0,
-            ..p
-        };
         assert!(should_search(
             &fast,
             &anchor,
             &recent,
-            Some(&sure),
+            Some(&good),
             10,
             0,
-            &always
+            &p
         ));
     }
 }

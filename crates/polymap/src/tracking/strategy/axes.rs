@@ -10,6 +10,7 @@ use super::{
 use crate::align::AlignResult;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::tracking::params::MotionPrior;
+use crate::tracking::params::UNOBSERVED_REACH_M;
 use crate::tracking::verdict::{Reason, verdict};
 
 /// Whether `other` lies within [`UNOBSERVED_ACROSS_M`] of `result` across `axis` (map frame,
@@ -39,7 +40,7 @@ impl Attempt<'_> {
     pub(super) fn checks_along_axes(&self) -> bool {
         let tracking = self.config.tracking;
         tracking.search_unobserved
-            && tracking.window_search
+            && tracking.search.enabled
             && self.input.lost_streak == 0
             && self.config.starts.motion_prior != MotionPrior::Odometry
     }
@@ -56,7 +57,7 @@ impl Attempt<'_> {
         let on = input.lost_streak == 0
             && input.unobserved_to != input.anchor
             && result.weak_directions == 0
-            && info.weakest < tracking.weak_below_information;
+            && info.weakest < tracking.verdict.weak_below_information;
         if !on {
             return None;
         }
@@ -81,17 +82,21 @@ impl Attempt<'_> {
     ) -> bool {
         let tracking = self.config.tracking;
         searched.weak_directions == 0
-            && searched.translation_information.weakest >= tracking.weak_below_information
+            && searched.translation_information.weakest >= tracking.verdict.weak_below_information
             && agrees_across(searched, result, axis)
             && searched.inliers >= result.inliers
     }
 
     /// ICP from poses along `axis` (every [`UNOBSERVED_SEED_STEP_M`] up to
-    /// `tracking.unobserved_reach_m` either side of `result`): the best that is evidence of
-    /// the step ([`Attempt::evidence_along`]), unless a distinct one is evidence too.
+    /// `UNOBSERVED_REACH_M` either side of `result`): the best that is evidence of
+    /// the step ([`Attempt::evidence_along`]), unless a distinct one is evidence too; `None`
+    /// without `tracking.along_unobserved`.
     pub(super) fn along_unobserved(&self, result: &AlignResult, axis: Vec2) -> Option<AlignResult> {
         let tracking = self.config.tracking;
-        let steps = (tracking.unobserved_reach_m / UNOBSERVED_SEED_STEP_M).floor() as i32;
+        if !tracking.along_unobserved {
+            return None;
+        }
+        let steps = (UNOBSERVED_REACH_M / UNOBSERVED_SEED_STEP_M).floor() as i32;
         let origin = result.map_from_robot;
         let passed: Vec<AlignResult> = (-steps..=steps)
             .filter(|&k| k != 0)
@@ -117,7 +122,7 @@ impl Attempt<'_> {
     /// [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest recent step from the anchor (ahead, in
     /// the sense of the speed last observed where that is at least `search_above_step_m`
     /// along the axis: a step back counts as none), while the robot moved at least
-    /// `tracking.search_above_step_m` per scan lately: a fast robot that ICP, on weak
+    /// `tracking.search.search_above_step_m` per scan lately: a fast robot that ICP, on weak
     /// evidence, says stopped, slowed down or backing (also where the fallback was not tried
     /// because the pose lies near it); only where [`Attempt::checks_along_axes`].
     pub(super) fn stopped_on_weak_evidence(&self, result: &AlignResult) -> Option<Vec2> {
@@ -125,7 +130,7 @@ impl Attempt<'_> {
         let info = result.translation_information;
         let recent = input.recent.step_m();
         let on = self.checks_along_axes()
-            && recent >= tracking.search_above_step_m
+            && recent >= tracking.search.search_above_step_m
             // A fit whose only doubt is that one direction: a poor fit is doubtful in every
             // direction, and "agrees across" says nothing about it.
             && verdict(Some(result), self.points.len(), false, tracking).reason
@@ -138,7 +143,7 @@ impl Attempt<'_> {
     }
 
     /// The direction (map frame, degrees) along which `result` fell short of the last observed
-    /// motion on weak evidence (`tracking.slowed_below_information`): without the odometry
+    /// motion on weak evidence (`tracking.verdict.slowed_below_information`): without the odometry
     /// prior, its least observed translation has less information than that, the last
     /// observed motion ([`TrackInput::unobserved_to`]) went at least `search_above_step_m`
     /// along it, and `result` moved less than [`STOPPED_BELOW_SHARE_OF_STEP`] of that along
@@ -146,9 +151,9 @@ impl Attempt<'_> {
     pub(super) fn slowed(&self, result: &AlignResult) -> Option<f64> {
         let tracking = self.config.tracking;
         let info = result.translation_information;
-        let on = tracking.slowed_below_information > 0.0
+        let on = tracking.verdict.slowed_below_information > 0.0
             && self.config.starts.motion_prior != MotionPrior::Odometry
-            && info.weakest < tracking.slowed_below_information;
+            && info.weakest < tracking.verdict.slowed_below_information;
         let axis = info.weakest_axis();
         let short = match self.moved_along(result, axis) {
             (ahead, Some(expected)) => ahead < STOPPED_BELOW_SHARE_OF_STEP * expected,
@@ -159,7 +164,7 @@ impl Attempt<'_> {
 
     /// How far `result` lies from the anchor along `axis` (map frame, unit vector), metres:
     /// signed, ahead positive, in the sense of the speed last observed (the fallback,
-    /// `TrackInput::unobserved_to`) where that moves at least `tracking.search_above_step_m`
+    /// `TrackInput::unobserved_to`) where that moves at least `tracking.search.search_above_step_m`
     /// along the axis, with that speed's length along it; otherwise unsigned, and `None`.
     pub(super) fn moved_along(&self, result: &AlignResult, axis: Vec2) -> (f64, Option<f64>) {
         let input = self.input;
@@ -167,7 +172,7 @@ impl Attempt<'_> {
         let moved = (result.map_from_robot.translation() - from).dot(axis);
         let expected = (input.unobserved_to.translation() - from).dot(axis);
         // `expected` ≠ 0: the sign of −0.0 would turn `moved` round where the step may be 0.
-        match expected != 0.0 && expected.abs() >= self.config.tracking.search_above_step_m {
+        match expected != 0.0 && expected.abs() >= self.config.tracking.search.search_above_step_m {
             true => (moved * expected.signum(), Some(expected.abs())),
             false => (moved.abs(), None),
         }

@@ -6,11 +6,12 @@ use super::{Attempt, best_of};
 use crate::align::{AlignMethod, AlignResult, Candidate};
 use crate::geometry::{Pose2, normalize_angle_rad};
 use crate::tracking::corner_seeds;
+use crate::tracking::params::{CORNER_RIVAL_BELOW, CORNER_WIN_RATIO, SEARCH_WIN_MARGIN};
 use crate::tracking::params::{MotionPrior, TrackParams};
 use crate::tracking::verdict::{Tracking, Verdict, verdict};
 
 /// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
-/// far as the window search may while tracking (`tracking.odometry_max_window_deg`): its guess carries
+/// far as the window search may while tracking (`tracking.odometry.odometry_max_window_deg`): its guess carries
 /// the turn, and a bad odometry turn is off by tens of degrees, not half a turn; a corridor's
 /// corners fit a scan turned half round nearly as well as the truth (Intel with odometry,
 /// every 5th scan, with 4 loop candidates per node: a pose 178° off the odometry guess took
@@ -27,10 +28,10 @@ pub(super) fn corner_turn_rad(odometry: bool, tracking: &TrackParams) -> f64 {
 
 impl Attempt<'_> {
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
-    /// score above `current`'s pose; the best of them when it has `tracking.corner_win_ratio`
-    /// times `current`'s inliers (plus two), at least `tracking.search_below_inlier_share` of
+    /// score above `current`'s pose; the best of them when it has `CORNER_WIN_RATIO`
+    /// times `current`'s inliers (plus two), at least `tracking.search.search_below_inlier_share` of
     /// the points are inliers, and no distinct pose from another hypothesis has
-    /// `tracking.corner_rival_below` of its inliers.
+    /// `CORNER_RIVAL_BELOW` of its inliers.
     pub(super) fn icp_from_corners(&self, current: &AlignResult) -> Option<AlignResult> {
         let input = self.input;
         let tracking = self.config.tracking;
@@ -56,7 +57,7 @@ impl Attempt<'_> {
         // (a building of alike rooms fits a scan turned by a right angle almost as well).
         let rival = all.iter().any(|r| {
             tracking.apart(&best.map_from_robot, &r.map_from_robot)
-                && r.inliers as f64 >= tracking.corner_rival_below * best.inliers as f64
+                && r.inliers as f64 >= CORNER_RIVAL_BELOW * best.inliers as f64
         });
         (self.wins_by_ratio(&best, current) && !rival).then_some(best)
     }
@@ -77,7 +78,7 @@ impl Attempt<'_> {
     }
 
     /// Whether `pose` is within reach of the last `ok` pose in the time since that scan
-    /// (`tracking.max_speed_m_s`, `max_turn_deg_s`, plus `reach_slack_m`, `reach_slack_deg`);
+    /// (`tracking.reach.max_speed_m_s`, `max_turn_deg_s`, plus `REACH_SLACK_M`, `REACH_SLACK_DEG`);
     /// true when the stamps do not say (unknown, or not increasing), and with endpoint ICP
     /// (`--preset paper` stays as it was).
     pub(super) fn within_reach(&self, pose: &Pose2) -> bool {
@@ -119,29 +120,30 @@ impl Attempt<'_> {
     }
 
     /// Whether `other`, ICP from a search's pose, beats `current`: more inliers by
-    /// `tracking.search_win_margin` (plus two), within reach ([`Attempt::within_reach`]).
+    /// `SEARCH_WIN_MARGIN` (plus two), within reach ([`Attempt::within_reach`]).
     pub(super) fn search_pose_wins(&self, other: &AlignResult, current: &AlignResult) -> bool {
-        let margin = self.config.tracking.search_win_margin;
+        let margin = SEARCH_WIN_MARGIN;
         other.inliers as f64 > current.inliers as f64 * (1.0 + margin) + 2.0
             && self.within_reach(&other.map_from_robot)
     }
 
-    /// Whether `other`, a pose away from the prediction, has `tracking.corner_win_ratio`
-    /// times `current`'s inliers (plus two) and at least `tracking.search_below_inlier_share`
+    /// Whether `other`, a pose away from the prediction, has `CORNER_WIN_RATIO`
+    /// times `current`'s inliers (plus two) and at least `tracking.search.search_below_inlier_share`
     /// of the points (the corner poses' rule).
     pub(super) fn wins_by_ratio(&self, other: &AlignResult, current: &AlignResult) -> bool {
         let tracking = self.config.tracking;
         let n = self.points.len() as f64;
-        other.inliers as f64 >= tracking.corner_win_ratio * current.inliers as f64 + 2.0
-            && other.inliers as f64 >= tracking.search_below_inlier_share * n
+        other.inliers as f64 >= CORNER_WIN_RATIO * current.inliers as f64 + 2.0
+            && other.inliers as f64 >= tracking.search.search_below_inlier_share * n
     }
 
     /// Whether `other`, a pose away from the prediction, beats `current` clearly: it wins by
     /// ratio ([`Attempt::wins_by_ratio`]) and observes every direction with at least
-    /// `tracking.weak_below_information`.
+    /// `tracking.verdict.weak_below_information`.
     pub(super) fn wins_clearly(&self, other: &AlignResult, current: &AlignResult) -> bool {
         self.wins_by_ratio(other, current)
             && other.weak_directions == 0
-            && other.translation_information.weakest >= self.config.tracking.weak_below_information
+            && other.translation_information.weakest
+                >= self.config.tracking.verdict.weak_below_information
     }
 }

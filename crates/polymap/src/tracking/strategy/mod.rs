@@ -8,15 +8,15 @@
 //! 1. **Starts**: the guess; the anchor when they differ (`mapper.also_start_at_anchor`: a
 //!    constant-velocity guess is wrong when a turn starts, stops or reverses); with the
 //!    odometry prior, the constant-velocity guess when it disagrees with odometry
-//!    (`tracking.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn; its pose
+//!    (`tracking.odometry.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn; its pose
 //!    overrules the odometry's only with a fit, [`Attempt::overrules_odometry`]); after a lost
 //!    scan (a poor fit, which the guess and anchor come from), the last `ok` pose (with the
 //!    odometry prior moved by the odometry since then, [`TrackInput::restart`]); the best coarse
 //!    rotation ([`rotation_search`]) when the robot turned faster than ICP's basin. With
 //!    `mapper.icp_from_best_start_only`, ICP runs only from the start with the best soft
-//!    inlier score (the first start kept unless beaten by `mapper.start_score_margin`);
+//!    inlier score (the first start kept unless beaten by `START_SCORE_MARGIN`);
 //!    otherwise from each, and the [`better`] fit wins. Where that fits under
-//!    `tracking.search_below_inlier_share` of the points and odometry disagrees with the
+//!    `tracking.search.search_below_inlier_share` of the points and odometry disagrees with the
 //!    constant-velocity guess, also from the best coarse rotation around the latter (a stalled
 //!    wheel reads a turn the robot did not make); where it still fits poorly, with the
 //!    odometry prior, also from the odometry's motion since the last `ok` scan reversed
@@ -29,19 +29,19 @@
 //! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
 //!    [`search_window`] (where ICP fits poorly, as wide as the recent motion; with the
 //!    odometry prior towards the constant-velocity guess where odometry disagrees with it: its
-//!    heading always, its position up to `tracking.max_window_m`; after a gap in the log, as
+//!    heading always, its position up to `tracking.search.max_window_m`; after a gap in the log, as
 //!    far as the robot can go and turn in its time), or the whole map every
-//!    `tracking.relocalize_every_lost` scans lost in a row; ICP from its best pose replaces
-//!    ICP from the starts only with `tracking.search_win_margin` more inliers (plus two).
+//!    `RELOCALIZE_EVERY_LOST` scans lost in a row; ICP from its best pose replaces
+//!    ICP from the starts only with `SEARCH_WIN_MARGIN` more inliers (plus two).
 //!    A robot that stood still and still fits poorly is searched again as far as it can turn
 //!    since the last `ok` scan, a turn on the spot; that pose must win by
-//!    `tracking.corner_win_ratio` ([`Attempt::turned_on_the_spot`]).
+//!    `CORNER_WIN_RATIO` ([`Attempt::turned_on_the_spot`]).
 //!    Without odometry, a pose ICP put on its fallback (`TrackInput::unobserved_to`: the
 //!    previous pose, or moved by the last observed motion) along a direction it could not
 //!    observe is searched too, and the search's
 //!    pose wins when ICP from it observes every direction with at least as many inliers
 //!    (`tracking.search_unobserved`: evidence against none); when it does not, ICP from
-//!    poses along that direction up to `tracking.unobserved_reach_m` either side may win by
+//!    poses along that direction up to `UNOBSERVED_REACH_M` either side may win by
 //!    the same test, unless two distinct ones pass ([`Attempt::along_unobserved`]). A pose
 //!    ICP observed along a direction only weakly, more than [`PRIOR_OVER_WEAK_M`] from the
 //!    fallback, is replaced by ICP from the fallback when that fits as well
@@ -49,34 +49,34 @@
 //!    near the fallback), the weak axis is the fit's only doubt (its verdict would be
 //!    `weakly_observed`), the pose lies within [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest
 //!    recent step from the anchor (ahead, in the sense of the speed last observed where that
-//!    moves at least `tracking.search_above_step_m` along the axis), and that
-//!    step is at least `tracking.search_above_step_m` (a fast robot that ICP, on weak
+//!    moves at least `tracking.search.search_above_step_m` along the axis), and that
+//!    step is at least `tracking.search.search_above_step_m` (a fast robot that ICP, on weak
 //!    evidence, says stopped, slowed down or backing), ICP from poses
 //!    along the axis may win by the test above, under the same conditions
 //!    ([`Attempt::stopped_on_weak_evidence`], [`Attempt::checks_along_axes`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
 //!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
-//!    the scan on a corner of the map within `tracking.corner_reach_m` of the guess
+//!    the scan on a corner of the map within `CORNER_REACH_M` of the guess
 //!    ([`corner_seeds`]), scored above ICP's pose on the search raster; the best replaces
-//!    ICP's pose with `tracking.corner_win_ratio` times its inliers (plus two) when at least
-//!    `tracking.search_below_inlier_share` of the points are inliers and no distinct pose
-//!    from another hypothesis has `tracking.corner_rival_below` of its inliers; with the
-//!    odometry prior only a pose turned at most `tracking.odometry_max_window_deg` from the odometry
+//!    ICP's pose with `CORNER_WIN_RATIO` times its inliers (plus two) when at least
+//!    `tracking.search.search_below_inlier_share` of the points are inliers and no distinct pose
+//!    from another hypothesis has `CORNER_RIVAL_BELOW` of its inliers; with the
+//!    odometry prior only a pose turned at most `tracking.odometry.odometry_max_window_deg` from the odometry
 //!    guess (or from the constant-velocity guess where odometry disagrees with it) may win (any
 //!    may veto); with point-to-segment ICP only a pose within reach of the
 //!    last `ok` pose in the time the stamps give ([`Attempt::within_reach`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]; ICP from the rival replaces a pose that no corner pose
-//!    placed where it fits more points by `tracking.search_win_margin`, plus two, within
+//!    placed where it fits more points by `SEARCH_WIN_MARGIN`, plus two, within
 //!    reach, observing every direction and not `lost`, with odometry turned at most as far
 //!    from its guess as a corner pose: [`Attempt::rival_fits_better`]; the same for a pose
 //!    still `lost` or in doubt after the corners, while tracking and not on the spot, and by
-//!    `corner_win_ratio` over a `lost` one, the scan then at best `ambiguous`),
+//!    `CORNER_WIN_RATIO` over a `lost` one, the scan then at best `ambiguous`),
 //!    or when ICP from the search's pose and from the starts
 //!    reached distinct poses that both observe every direction and fit alike (within
-//!    `tracking.ambiguous_above` of the inliers); `weak` (`slowed`) for a fast robot put near
+//!    `tracking.verdict.ambiguous_above` of the inliers); `weak` (`slowed`) for a fast robot put near
 //!    no motion on weak evidence ([`Attempt::slowed`]); `weak` (`off_odometry`) where the
 //!    log's odometry, witnessing without being the prior, gives the step another length
 //!    ([`OdometryWitness`]).
@@ -141,12 +141,12 @@ pub struct TrackInput<'a> {
     /// Scans lost in a row just before this one.
     pub lost_streak: u32,
     /// Without the odometry prior, the log's odometry as a witness of the step, where the
-    /// tracker trusts it to witness (`tracking.odometry_witness_m`).
+    /// tracker trusts it to witness (`tracking.odometry.odometry_witness_m`).
     pub odometry_witness: Option<OdometryWitness>,
 }
 
 /// The parameters [`track_scan`] follows: ICP's, tracking's, and the start policy of `[mapper]`
-/// (`also_start_at_anchor`, `icp_from_best_start_only`, `start_score_margin`,
+/// (`also_start_at_anchor`, `icp_from_best_start_only`, `START_SCORE_MARGIN`,
 /// `recover_below_inlier_share`, and whether `motion_prior` is odometry).
 #[derive(Debug, Clone, Copy)]
 pub struct TrackConfig<'a> {
@@ -166,7 +166,7 @@ pub const UNOBSERVED_ACROSS_M: f64 = 0.1;
 /// ...and is turned from it by at most this, degrees (the walls observed the rotation).
 pub const UNOBSERVED_TURN_DEG: f64 = 3.0;
 
-/// With `tracking.unobserved_reach_m`, ICP runs from poses this far apart along the axis,
+/// With `UNOBSERVED_REACH_M`, ICP runs from poses this far apart along the axis,
 /// metres: within the reach of ICP's gate, so a frame or a wall end near the true pose draws it.
 pub const UNOBSERVED_SEED_STEP_M: f64 = 0.25;
 
@@ -240,7 +240,7 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     // turned 0.2° at 44 % of the points, ICP from the rival 32° at 60 %). Not while
     // relocalizing after lost scans, nor for a pose of the search on the spot (its own guards
     // decide there); over a `lost` pose it must win as a corner pose does, by
-    // `corner_win_ratio`, since it then enters the map where the lost one would not. The
+    // `CORNER_WIN_RATIO`, since it then enters the map where the lost one would not. The
     // raster preferred the other pose, so the scan is at best `ambiguous`.
     let doubted = !tracking.corner_won
         && !on_the_spot
@@ -304,7 +304,10 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     // slipped, and a scan matched `ok` to the wrong door frame is as likely as a wheel's slip.
     if tracking.verdict == Verdict::Ok
         && let (Some(witness), Some(r)) = (input.odometry_witness, result.as_ref())
-        && witness.contradicts(&r.map_from_robot, config.tracking.odometry_witness_m)
+        && witness.contradicts(
+            &r.map_from_robot,
+            config.tracking.odometry.odometry_witness_m,
+        )
     {
         tracking.verdict = Verdict::Weak;
         tracking.reason = Reason::OffOdometry;
@@ -313,12 +316,12 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
 }
 
 /// Whether `other`, an ICP pose that lost to `kept`, makes the scan's place ambiguous: distinct
-/// from it (more than `tracking.rival_apart_m` or `rival_apart_deg`), observed in every
-/// direction, and fitting at least `tracking.ambiguous_above` of its inliers.
+/// from it (more than `tracking.verdict.rival_apart_m` or `rival_apart_deg`), observed in every
+/// direction, and fitting at least `tracking.verdict.ambiguous_above` of its inliers.
 fn fits_nearly_as_well(other: &AlignResult, kept: &AlignResult, tracking: &TrackParams) -> bool {
     other.weak_directions == 0
         && tracking.apart(&kept.map_from_robot, &other.map_from_robot)
-        && other.inliers as f64 >= tracking.ambiguous_above * kept.inliers as f64
+        && other.inliers as f64 >= tracking.verdict.ambiguous_above * kept.inliers as f64
 }
 
 /// Whether a verdict leaves the pose in doubt enough to try the corner hypotheses: `lost`,
@@ -332,7 +335,7 @@ fn doubtful(tracking: &Tracking, config: &TrackConfig) -> bool {
     tracking.verdict == Verdict::Lost
         || tracking.reason == Reason::PoorFit
         || (config.align.method == AlignMethod::PointToSegment
-            && tracking.inlier_share < config.tracking.search_below_inlier_share)
+            && tracking.inlier_share < config.tracking.search.search_below_inlier_share)
 }
 
 /// What [`Attempt::icp`] found.
@@ -344,12 +347,12 @@ struct Aligned {
     /// Whether ICP from the search's pose replaced ICP from the starts.
     search_won: bool,
     /// Whether the other of the two ICP poses is distinct from the one kept (more than
-    /// `tracking.rival_apart_m` or `rival_apart_deg`), observed in every direction, and fits
-    /// at least `tracking.ambiguous_above` of its inliers.
+    /// `tracking.verdict.rival_apart_m` or `rival_apart_deg`), observed in every direction, and fits
+    /// at least `tracking.verdict.ambiguous_above` of its inliers.
     second_fit: bool,
     /// Whether the pose kept came from the search as wide as the robot can turn on the spot
     /// ([`Attempt::turned_on_the_spot`]), whose outcome `found` then is: its own guards (on
-    /// the spot, `corner_win_ratio`) are the only ones its poses may win by.
+    /// the spot, `CORNER_WIN_RATIO`) are the only ones its poses may win by.
     on_the_spot: bool,
 }
 

@@ -6,6 +6,7 @@ use super::{Aligned, Attempt, fits_nearly_as_well};
 use crate::align::{AlignResult, SearchWindow};
 use crate::geometry::Vec2;
 use crate::tracking::params::MotionPrior;
+use crate::tracking::params::{CORNER_WIN_RATIO, RELOCALIZE_EVERY_LOST};
 use crate::tracking::recent::RecentMotion;
 use crate::tracking::window::{search_window, should_search, whole_map_window, window_search};
 
@@ -32,7 +33,7 @@ impl Attempt<'_> {
         {
             return Aligned::icp(Some(result));
         }
-        let every = tracking.relocalize_every_lost;
+        let every = RELOCALIZE_EVERY_LOST;
         let global = every > 0 && lost_streak > 0 && lost_streak.is_multiple_of(every);
         match global
             .then(|| whole_map_window(input.map, &guess))
@@ -47,15 +48,15 @@ impl Attempt<'_> {
         }
     }
 
-    /// Whether ICP's `result` fits under `tracking.search_below_inlier_share` of the points.
+    /// Whether ICP's `result` fits under `tracking.search.search_below_inlier_share` of the points.
     pub(super) fn fits_poorly(&self, result: &AlignResult) -> bool {
         let share = result.inliers as f64 / self.points.len().max(1) as f64;
-        share < self.config.tracking.search_below_inlier_share
+        share < self.config.tracking.search.search_below_inlier_share
     }
 
     /// The window around the prediction ([`search_window`]); while ICP's `result` fits poorly
     /// ([`Attempt::fits_poorly`]), also as wide as the recent motion
-    /// (`tracking.window_per_recent`): the robot may have moved on at its recent speed after a
+    /// (`tracking.recent_window`, `WINDOW_PER_RECENT`): the robot may have moved on at its recent speed after a
     /// stop, or turned as it did lately; and with the odometry prior, as far as the
     /// constant-velocity guess where odometry disagrees with it; after a gap in the log
     /// ([`TrackInput::after_gap`]), as far as the robot can go and turn in the gap's time. The
@@ -92,7 +93,12 @@ impl Attempt<'_> {
         let after_gap = tracking.gap_window && input.after_gap;
         if let Some(dt) = input.dt_s.filter(|_| poor && after_gap) {
             let (reach_m, _) = tracking.reach(dt);
-            let reach_m = reach_m.min(tracking.max_window_m.max(tracking.min_window_m));
+            let reach_m = reach_m.min(
+                tracking
+                    .search
+                    .max_window_m
+                    .max(tracking.search.min_window_m),
+            );
             window.half_xy_m = window.half_xy_m.max(reach_m);
             window.half_theta_rad = window.half_theta_rad.max(self.turn_reach_rad(dt));
         }
@@ -116,7 +122,7 @@ impl Attempt<'_> {
     /// the prediction nor the recent motion foresees (`tracking.turn_on_the_spot`): searched
     /// again around the prediction with the rotation window as wide as the robot can turn
     /// since the last `ok` scan (`within_reach`'s bound), seeded with the pose kept. ICP from
-    /// that search's pose wins as a corner pose does, by `tracking.corner_win_ratio` times the
+    /// that search's pose wins as a corner pose does, by `CORNER_WIN_RATIO` times the
     /// inliers (plus two), and only on the spot (within `search_above_step_m` of the anchor)
     /// and within reach: a scan that fits poorly at its true pose (people in view) finds some
     /// turned pose that fits a little better, often off the spot (FR079 every 3rd scan: a pose
@@ -129,8 +135,8 @@ impl Attempt<'_> {
             return aligned;
         };
         let still = input.anchor.between(&input.guess).translation().length()
-            <= tracking.search_above_step_m
-            && input.recent.step_m() <= tracking.search_above_step_m;
+            <= tracking.search.search_above_step_m
+            && input.recent.step_m() <= tracking.search.search_above_step_m;
         let Some(reach_rad) = input
             .dt_s
             .filter(|_| still)
@@ -160,8 +166,8 @@ impl Attempt<'_> {
             .between(&turned.map_from_robot)
             .translation()
             .length()
-            <= tracking.search_above_step_m;
-        let wins = turned.inliers as f64 > kept.inliers as f64 * tracking.corner_win_ratio + 2.0
+            <= tracking.search.search_above_step_m;
+        let wins = turned.inliers as f64 > kept.inliers as f64 * CORNER_WIN_RATIO + 2.0
             && on_the_spot
             && self.within_reach(&turned.map_from_robot);
         if !wins {
@@ -177,7 +183,7 @@ impl Attempt<'_> {
     }
 
     /// The window search in `window` and ICP from its best pose against ICP's `result` from
-    /// the starts: the search's pose wins by `tracking.search_win_margin`, or by evidence
+    /// the starts: the search's pose wins by `SEARCH_WIN_MARGIN`, or by evidence
     /// along the `unobserved` axis.
     pub(super) fn search_in(
         &self,

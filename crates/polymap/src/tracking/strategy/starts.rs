@@ -15,6 +15,7 @@ use crate::align::{
 };
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::tracking::params::MotionPrior;
+use crate::tracking::params::START_SCORE_MARGIN;
 use crate::tracking::recent::LOOSE_OFF_MAP_M;
 use crate::tracking::window::window_search;
 
@@ -93,7 +94,7 @@ impl Attempt<'_> {
         };
         let mut starts = self.starts();
         if policy.icp_from_best_start_only && starts.len() > 1 {
-            let margin = policy.start_score_margin;
+            let margin = START_SCORE_MARGIN;
             starts = vec![best_scoring(
                 &starts,
                 self.points,
@@ -261,7 +262,7 @@ impl Attempt<'_> {
     }
 
     /// The constant-velocity prediction, with the odometry prior, when it differs from the
-    /// odometry guess by more than `tracking.odometry_check_m` or `odometry_check_deg`.
+    /// odometry guess by more than `tracking.odometry.odometry_check_m` or `odometry_check_deg`.
     pub(super) fn odometry_disagrees(&self) -> Option<Pose2> {
         if self.config.starts.motion_prior != MotionPrior::Odometry {
             return None;
@@ -269,15 +270,15 @@ impl Attempt<'_> {
         let cv = self.input.constant_velocity?;
         let d = self.input.guess.between(&cv);
         let t = self.config.tracking;
-        (d.translation().length() > t.odometry_check_m
-            || d.theta_rad.abs().to_degrees() > t.odometry_check_deg)
+        (d.translation().length() > t.odometry.odometry_check_m
+            || d.theta_rad.abs().to_degrees() > t.odometry.odometry_check_deg)
             .then_some(cv)
     }
 
     /// With the odometry prior (`tracking.reversed_odometry`), the last `ok` pose
     /// ([`TrackInput::last_ok`]) moved by the odometry's motion since then (to
     /// [`TrackInput::restart`]) with its translation reversed and its turn kept; `None` for a
-    /// motion under `tracking.search_above_step_m` (ICP's basin covers it reversed).
+    /// motion under `tracking.search.search_above_step_m` (ICP's basin covers it reversed).
     pub(super) fn reversed_odometry(&self) -> Option<Pose2> {
         let (input, tracking) = (self.input, self.config.tracking);
         let odometry = self.config.starts.motion_prior == MotionPrior::Odometry;
@@ -285,7 +286,7 @@ impl Attempt<'_> {
             return None;
         }
         let d = input.last_ok.between(&input.restart);
-        (d.translation().length() >= tracking.search_above_step_m).then(|| {
+        (d.translation().length() >= tracking.search.search_above_step_m).then(|| {
             input
                 .last_ok
                 .compose(&Pose2::new(-d.x_m, -d.y_m, d.theta_rad))
@@ -294,7 +295,7 @@ impl Attempt<'_> {
 
     /// Whether ICP from the scans' own motion (`from_cv`) overrules ICP from the odometry's
     /// starts (`from_odometry`): it fits better ([`better`]) and at least
-    /// `tracking.search_below_inlier_share` of the points. Where both fit poorly, a few more
+    /// `tracking.search.search_below_inlier_share` of the points. Where both fit poorly, a few more
     /// inliers are no evidence against odometry (ACES with odometry every 10th scan: turns
     /// odometry read right, 41° and −87°, taken 23° and 95° off from the constant-velocity
     /// start at 50 % and 44 % of the points; the maps 7.7 and 17.3 m off the dense run).

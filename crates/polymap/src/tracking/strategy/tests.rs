@@ -4,6 +4,7 @@ use crate::align::{Candidate, TranslationInformation};
 use crate::extract::{ExtractParams, extract_segments};
 use crate::testutil::{cast_360 as cast, map_of, room, seg};
 use crate::tracking::corner_seeds;
+use crate::tracking::params::CORNER_WIN_RATIO;
 use crate::tracking::params::MotionPrior;
 use crate::tracking::window::search_window;
 
@@ -234,13 +235,6 @@ fn a_motion_beyond_the_window_is_found_by_corner_hypotheses() {
     assert!(e.translation().length() > 0.5, "{e:?}");
     assert!(!tracking.corner_won);
     assert_ne!(tracking.verdict, Verdict::Ok, "{tracking:?}");
-    // The same pose, refused when it must explain more times ICP's inliers than it does.
-    let stricter = TrackParams {
-        corner_win_ratio: 50.0,
-        ..TrackParams::default()
-    };
-    let (_, tracking) = track_in(&world, &map, truth, guess, &stricter);
-    assert!(!tracking.corner_won, "{tracking:?}");
 }
 
 /// Tracks the scan of `scene` (point-to-segment ICP) after the `recent` motion, from
@@ -373,27 +367,27 @@ fn with_odometry_a_rival_turned_half_round_from_its_guess_does_not_replace_the_p
 /// A robot that stood for a scan (the prediction: no motion) and then moved on as it did
 /// before: [`beyond_the_window`]'s 2.2 m and 70°, with a window of at most 2.5 m, and no
 /// corner hypotheses. ICP fits poorly; the prediction's window (±0.3 m, ±15°) misses the
-/// pose, the window of the recent motion (`tracking.window_per_recent`) finds it.
+/// pose, the window of the recent motion (`tracking.recent_window`) finds it.
 #[test]
 fn a_robot_moving_on_after_a_stop_is_found_in_the_window_of_its_recent_motion() {
     let (world, map, truth, guess) = beyond_the_window();
     let mut moving = RecentMotion::default();
     moving.push(&guess, &truth);
-    let without_corners = TrackParams {
+    let mut without_corners = TrackParams {
         corner_hypotheses: false,
-        max_window_m: 2.5,
         ..TrackParams::default()
     };
+    without_corners.search.max_window_m = 2.5;
     let off = TrackParams {
-        window_per_recent: 0.0,
+        recent_window: false,
         ..without_corners.clone()
     };
     let scene = (&world[..], &map, truth, guess, 0);
     let starts = MapperParams::default();
     for (tracking, found) in [(&without_corners, true), (&off, false)] {
         let (near, e, verdict) = track_after(scene, tracking, &starts, &moving, guess);
-        let per_recent = tracking.window_per_recent;
-        assert_eq!(near, found, "per recent {per_recent}: {e:?} {verdict:?}");
+        let on = tracking.recent_window;
+        assert_eq!(near, found, "recent window {on}: {e:?} {verdict:?}");
         assert_eq!(verdict.search_won, found, "{verdict:?}");
     }
 }
@@ -401,10 +395,10 @@ fn a_robot_moving_on_after_a_stop_is_found_in_the_window_of_its_recent_motion() 
 /// A robot that stood still (no recent motion, the prediction: no motion) and then turned
 /// 60° on the spot in the 0.6 s to the next scan: ICP from the guess fits poorly, and the
 /// prediction's window (±15°) misses the turn; a second search, as far as the robot can
-/// turn in that time (`tracking.max_turn_deg_s` × 0.6 s + `reach_slack_deg` = 92°), finds
-/// it, and its pose fits more than `corner_win_ratio` times the inliers. Without stamps,
-/// for a robot on the move, where the turned pose must fit 50 times better, or where it
-/// lies 0.25 m away (not on the spot), the pose stays a poor fit (ACES every 5th scan,
+/// turn in that time (`tracking.reach.max_turn_deg_s` × 0.6 s + `REACH_SLACK_DEG` = 92°), finds
+/// it, and its pose fits more than `CORNER_WIN_RATIO` times the inliers. Without stamps,
+/// for a robot on the move, without the rule (`turn_on_the_spot`), or where it lies 0.25 m
+/// away (not on the spot), the pose stays a poor fit (ACES every 5th scan,
 /// phase 3: a 48° turn after a stop, tracked as 14°, turned the rest of the map; 4.0 m mean
 /// relation error, no warning).
 #[test]
@@ -421,8 +415,8 @@ fn a_turn_on_the_spot_after_a_stop_is_found_within_the_robots_reach() {
         corner_hypotheses: false,
         ..TrackParams::default()
     };
-    let stricter = TrackParams {
-        corner_win_ratio: 50.0,
+    let without_rule = TrackParams {
+        turn_on_the_spot: false,
         ..tracking.clone()
     };
     // Without the recovery (a search of the whole circle when under 15 % of the points
@@ -435,7 +429,7 @@ fn a_turn_on_the_spot_after_a_stop_is_found_within_the_robots_reach() {
         (turned, &still, Some(0.6), &tracking, true),
         (turned, &still, None, &tracking, false),
         (turned, &moving, Some(0.6), &tracking, false),
-        (turned, &still, Some(0.6), &stricter, false),
+        (turned, &still, Some(0.6), &without_rule, false),
         (moved_on, &still, Some(0.6), &tracking, false),
     ] {
         let scene = (&world[..], &map, truth, before, 0);
@@ -491,7 +485,7 @@ fn after_a_gap_the_window_reaches_as_far_as_the_robot_can_go_in_its_time() {
 /// A robot that turned 130° lately and now turns back: the constant-velocity guess is
 /// turned 40° one way, the truth 90° the other, 130° from the guess. ICP from the guess
 /// fits poorly, so the window is that of the recent motion, ±(15° + 130°): without
-/// odometry it reaches the truth (`tracking.max_window_deg` = 180°), with the former 90°
+/// odometry it reaches the truth (`tracking.search.max_window_deg` = 180°), with the former 90°
 /// it does not (FR079 every 10th scan, phase 3: a turn 97° from the guess, tracked as a
 /// poor fit, and 12 scans after it 1-3.5 m off).
 #[test]
@@ -507,10 +501,8 @@ fn a_turn_back_beyond_a_right_angle_from_the_guess_is_found_in_the_window() {
         corner_hypotheses: false,
         ..TrackParams::default()
     };
-    let right_angle = TrackParams {
-        max_window_deg: 90.0,
-        ..whole.clone()
-    };
+    let mut right_angle = whole.clone();
+    right_angle.search.max_window_deg = 90.0;
     // Without the recovery (a search of the whole circle when under 15 % of the points
     // fit), so that only the window can find the pose.
     let starts = MapperParams {
@@ -520,7 +512,7 @@ fn a_turn_back_beyond_a_right_angle_from_the_guess_is_found_in_the_window() {
     let scene = (&world[..], &map, truth, guess, 0);
     for (tracking, found) in [(&whole, true), (&right_angle, false)] {
         let (near, e, verdict) = track_after(scene, tracking, &starts, &turning, before);
-        let window = tracking.max_window_deg;
+        let window = tracking.search.max_window_deg;
         assert_eq!(near, found, "window {window}°: {e:?} {verdict:?}");
         assert!(verdict.searched, "{verdict:?}");
     }
@@ -555,13 +547,16 @@ fn the_window_grows_with_the_recent_motion_only_after_a_poor_fit() {
         let good = attempt.run(&[], truth);
         let poor = attempt.run(&[], guess);
         let n = attempt.points.len() as f64;
-        assert!(good.inliers as f64 >= tracking.search_below_inlier_share * n);
-        assert!((poor.inliers as f64) < tracking.search_below_inlier_share * n);
+        assert!(good.inliers as f64 >= tracking.search.search_below_inlier_share * n);
+        assert!((poor.inliers as f64) < tracking.search.search_below_inlier_share * n);
         assert_eq!(attempt.window(&good), narrow);
         let wide = attempt.window(&poor);
         assert_eq!(wide.center, narrow.center);
-        assert_eq!(wide.half_xy_m, tracking.max_window_m);
-        assert_eq!(wide.half_theta_rad, tracking.max_window_deg.to_radians());
+        assert_eq!(wide.half_xy_m, tracking.search.max_window_m);
+        assert_eq!(
+            wide.half_theta_rad,
+            tracking.search.max_window_deg.to_radians()
+        );
     });
 }
 
@@ -613,11 +608,11 @@ fn after_a_lost_scan_icp_also_starts_from_the_last_ok_pose() {
     // near the truth (the robot barely moved since). With no search and no corner poses,
     // only that start reaches the truth, and only while a scan was lost just before.
     let (world, map, truth, guess) = beyond_the_window();
-    let tracking = TrackParams {
-        window_search: false,
+    let mut tracking = TrackParams {
         corner_hypotheses: false,
         ..TrackParams::default()
     };
+    tracking.search.enabled = false;
     let last_ok = Pose2::new(2.1, 1.9, 66f64.to_radians());
     for (lost_streak, reached) in [(1, true), (0, false)] {
         let scene = (&world[..], &map, truth, guess, lost_streak);
@@ -671,7 +666,7 @@ fn a_symmetric_room_gives_no_corner_pose() {
             .map(|c| attempt.run_near(c.map_from_robot))
             .filter(|r| {
                 let k = r.inliers as f64;
-                k >= tracking.corner_win_ratio * current.inliers as f64 + 2.0 && k >= 0.5 * n
+                k >= CORNER_WIN_RATIO * current.inliers as f64 + 2.0 && k >= 0.5 * n
             })
             .map(|r| r.map_from_robot)
             .collect();
@@ -693,10 +688,8 @@ fn with_odometry_a_corner_pose_turned_beyond_the_bound_does_not_win() {
     let map = map_of(&world, 0.5);
     let truth = Pose2::new(2.0, 2.0, 70f64.to_radians());
     let guess = Pose2::new(4.0, 3.0, 0.0);
-    let bound = TrackParams {
-        odometry_max_window_deg: 60.0,
-        ..TrackParams::default()
-    };
+    let mut bound = TrackParams::default();
+    bound.odometry.odometry_max_window_deg = 60.0;
     let scene = (&world[..], &map, truth, guess, 0);
     let odometry = MapperParams {
         motion_prior: MotionPrior::Odometry,
@@ -809,7 +802,7 @@ fn the_scans_own_motion_overrules_odometry_only_with_a_fit() {
         assert!(n >= 40, "{n} points");
         let r = t.run(&[], truth);
         let with = |inliers: usize| AlignResult { inliers, ..r };
-        let half = (n as f64 * tracking.search_below_inlier_share).ceil() as usize;
+        let half = (n as f64 * tracking.search.search_below_inlier_share).ceil() as usize;
         // More inliers and at least half the points: the scans' motion wins.
         assert!(t.overrules_odometry(&with(half + 1), &with(half - 5)));
         // More inliers but under half the points: both fit poorly, odometry stays.
@@ -907,7 +900,7 @@ fn with_odometry_that_disagrees_the_window_reaches_the_scans_own_motion() {
         t.window(&current)
     });
     let off = window.center.between(&cv);
-    let margin = tracking.min_window_deg.to_radians();
+    let margin = tracking.search.min_window_deg.to_radians();
     assert!(
         off.theta_rad.abs() + margin <= window.half_theta_rad + 1e-9,
         "{window:?}"
@@ -953,10 +946,13 @@ fn a_step_along_a_corridor_is_taken_from_the_search_where_icp_sees_none() {
     let map = map_of(&world, 0.5);
     let truth = Pose2::new(0.7, 0.0, 0.0);
     let guess = Pose2::IDENTITY;
-    let wide = |search_unobserved| TrackParams {
-        min_window_m: 1.0,
-        search_unobserved,
-        ..TrackParams::default()
+    let wide = |search_unobserved| {
+        let mut p = TrackParams {
+            search_unobserved,
+            ..TrackParams::default()
+        };
+        p.search.min_window_m = 1.0;
+        p
     };
     let (stuck, verdict) = track_in(&world, &map, truth, guess, &wide(false));
     let stuck = stuck.expect("a pose");
@@ -973,14 +969,10 @@ fn a_step_along_a_corridor_is_taken_from_the_search_where_icp_sees_none() {
     assert_eq!(tracked.1.reason, Reason::Ambiguous, "{:?}", tracked.1);
     // The search's pose must itself be well observed (here: more information than the
     // frames give), and the search must be on.
-    let strict = TrackParams {
-        weak_below_information: 1e3,
-        ..wide(true)
-    };
-    let off = TrackParams {
-        window_search: false,
-        ..wide(true)
-    };
+    let mut strict = wide(true);
+    strict.verdict.weak_below_information = 1e3;
+    let mut off = wide(true);
+    off.search.enabled = false;
     for tracking in [strict, off] {
         let (result, _) = track_in(&world, &map, truth, guess, &tracking);
         assert!(result.is_some_and(|r| r.map_from_robot.x_m.abs() < 0.05));
@@ -1021,7 +1013,7 @@ fn a_step_beyond_the_window_along_a_corridor_is_found_by_icp_along_the_axis() {
     let truth = Pose2::new(0.8, 0.0, 0.0);
     let guess = Pose2::IDENTITY;
     let off = TrackParams {
-        unobserved_reach_m: 0.0,
+        along_unobserved: false,
         ..TrackParams::default()
     };
     let (stuck, verdict) = track_in(&world, &map, truth, guess, &off);
@@ -1160,10 +1152,8 @@ fn a_fast_robot_put_near_no_motion_on_weak_evidence_is_called_slowed() {
         0,
     );
     let defaults = TrackParams::default();
-    let off = TrackParams {
-        slowed_below_information: 0.0,
-        ..TrackParams::default()
-    };
+    let mut off = TrackParams::default();
+    off.verdict.slowed_below_information = 0.0;
     let fit = with_attempt(AlignMethod::PointToSegment, scene, &defaults, |t| {
         t.run(&[], Pose2::IDENTITY)
     });
@@ -1307,7 +1297,10 @@ fn corner_poses_turn_half_round_only_without_odometry() {
     let tracking = TrackParams::default();
     assert_eq!(corner_turn_rad(false, &tracking), std::f64::consts::PI);
     let window = corner_turn_rad(true, &tracking);
-    assert_eq!(window, tracking.odometry_max_window_deg.to_radians());
+    assert_eq!(
+        window,
+        tracking.odometry.odometry_max_window_deg.to_radians()
+    );
     assert!(window < std::f64::consts::FRAC_PI_2 + 1e-9);
 }
 
