@@ -1,6 +1,9 @@
 //! B bent onto A by the joint pose graph of both maps' loop nodes
-//! ([`polymap::loops::joint_graph`]), seeded by the rigid match's best poses and by a search
-//! of each of B's nodes over A ([`polymap::loops::node_search_seeds`]).
+//! ([`polymap::loops::joint_graph`]), seeded by the rigid match's best poses and, when none
+//! of them passes, by a search of every few of B's nodes over A
+//! ([`polymap::loops::node_search_seeds`]).
+
+use std::time::Instant;
 
 use polymap::align::{GlobalMatch, GlobalParams, MatchVerdict, overlap_share, points_along};
 use polymap::config::Config;
@@ -59,16 +62,23 @@ pub(super) struct Tried {
     pub seeds: Vec<(Pose2, usize, f64, f64, bool)>,
     /// The first this many seeds are the rigid match's; the others the node search's.
     pub rigid_seeds: usize,
-    /// The search of each of B's nodes over A.
-    pub node_search: NodeSearch,
+    /// The search of B's nodes over A with its wall-clock seconds; `None` when a rigid seed
+    /// passed and it was not needed.
+    pub node_search: Option<(NodeSearch, f64)>,
     /// The first passing attempt in seed order, else the first attempt.
     pub best: Option<Bent>,
     /// Another passing attempt that puts B elsewhere (the merge is then ambiguous).
     pub rival: Option<Pose2>,
 }
 
-/// B bent onto A by the joint pose graph from each of the rigid match's best distinct poses;
-/// accepted when one passes (see [`Bent::passes`]) and no other passing one puts B elsewhere.
+/// B bent onto A by the joint pose graph from each of the rigid match's best distinct poses
+/// and, when none of them passes, from the node search's placements; accepted when one passes
+/// (see [`Bent::passes`]) and no other passing one puts B elsewhere.
+///
+/// The node search (most of the cost) runs only when no rigid seed passes: it only adds
+/// seeds, so it could turn a passing rigid seed into an ambiguous merge but never into a
+/// refusal for lack of overlap, and foreign maps, which pass from no seed, are searched as
+/// before.
 pub(super) fn by_pose_graph(
     fixed: &GlobalMap,
     b: &Input,
@@ -90,55 +100,31 @@ pub(super) fn by_pose_graph(
         }
     }
     let rigid_seeds = seeds.len();
-    let node_search = node_search_seeds(
-        a_nodes,
-        b_nodes,
-        &config.loops,
-        &config.align,
-        config.map.grid_cell_m,
-        &JointParams::default(),
-        &NodeSearchParams::default(),
-    );
-    for s in &node_search.seeds {
-        if seeds.iter().all(|t| apart(t, &s.a_from_b, params)) {
-            seeds.push(s.a_from_b);
-        }
-    }
     let a_segments: Vec<Segment> = fixed.iter().map(|(_, s)| s.segment).collect();
     let a_index = SegmentIndex::from_segments(&a_segments, 1.0, NEAR_M);
-    let mut attempts: Vec<Bent> = seeds
-        .iter()
-        .map(|seed| {
-            let graph = joint_graph(
-                a_nodes,
-                b_nodes,
-                seed,
-                &config.loops,
-                &config.align,
-                config.map.grid_cell_m,
-                &JointParams::default(),
-            );
-            let (b_segments, b_trajectory) =
-                bend_b(b, b_nodes, &graph, seed, config.loops.node_scans);
-            let bent: Vec<Segment> = b_segments.iter().map(|s| s.segment).collect();
-            let points = points_along(&bent, SAMPLE_SPACING_M);
-            let overlap = overlap_share(&points, &a_index, &Pose2::IDENTITY, params.inlier_m);
-            let near = overlap_share(&points, &a_index, &Pose2::IDENTITY, NEAR_M);
-            let agreement = if near > 0.0 { overlap / near } else { 0.0 };
-            let passes = graph.count(CrossVerdict::Used) >= MIN_CROSS
-                && overlap >= MIN_BENT_OVERLAP
-                && agreement >= MIN_AGREEMENT;
-            Bent {
-                seed: *seed,
-                graph,
-                b_segments,
-                b_trajectory,
-                overlap,
-                agreement,
-                passes,
+    let attempt = |seed: &Pose2| bent_from(&a_index, b, a_nodes, b_nodes, seed, params, config);
+    let mut attempts: Vec<Bent> = seeds.iter().map(attempt).collect();
+    let mut node_search = None;
+    if !attempts.iter().any(|t| t.passes) {
+        let started = Instant::now();
+        let searched = node_search_seeds(
+            a_nodes,
+            b_nodes,
+            &config.loops,
+            &config.align,
+            config.map.grid_cell_m,
+            &JointParams::default(),
+            &NodeSearchParams::default(),
+        );
+        let seconds = started.elapsed().as_secs_f64();
+        for s in &searched.seeds {
+            if seeds.iter().all(|t| apart(t, &s.a_from_b, params)) {
+                seeds.push(s.a_from_b);
+                attempts.push(attempt(&s.a_from_b));
             }
-        })
-        .collect();
+        }
+        node_search = Some((searched, seconds));
+    }
     let summary = attempts
         .iter()
         .map(|t| {
@@ -173,6 +159,45 @@ pub(super) fn by_pose_graph(
         node_search,
         best,
         rival,
+    }
+}
+
+/// B bent onto A (`a_index`: A's walls) by the joint pose graph from `seed`, judged.
+fn bent_from(
+    a_index: &SegmentIndex<usize>,
+    b: &Input,
+    a_nodes: &[SavedNode],
+    b_nodes: &[SavedNode],
+    seed: &Pose2,
+    params: &GlobalParams,
+    config: &Config,
+) -> Bent {
+    let graph = joint_graph(
+        a_nodes,
+        b_nodes,
+        seed,
+        &config.loops,
+        &config.align,
+        config.map.grid_cell_m,
+        &JointParams::default(),
+    );
+    let (b_segments, b_trajectory) = bend_b(b, b_nodes, &graph, seed, config.loops.node_scans);
+    let bent: Vec<Segment> = b_segments.iter().map(|s| s.segment).collect();
+    let points = points_along(&bent, SAMPLE_SPACING_M);
+    let overlap = overlap_share(&points, a_index, &Pose2::IDENTITY, params.inlier_m);
+    let near = overlap_share(&points, a_index, &Pose2::IDENTITY, NEAR_M);
+    let agreement = if near > 0.0 { overlap / near } else { 0.0 };
+    let passes = graph.count(CrossVerdict::Used) >= MIN_CROSS
+        && overlap >= MIN_BENT_OVERLAP
+        && agreement >= MIN_AGREEMENT;
+    Bent {
+        seed: *seed,
+        graph,
+        b_segments,
+        b_trajectory,
+        overlap,
+        agreement,
+        passes,
     }
 }
 
@@ -303,14 +328,7 @@ pub(super) fn pose_graph_json(t: &Tried, seconds: f64) -> serde_json::Value {
         "min_overlap": MIN_BENT_OVERLAP,
         "min_agreement": MIN_AGREEMENT,
         "rival": t.rival.as_ref().map(pose_json),
-        "node_search": {
-            "searched": t.node_search.searched,
-            "matched": t.node_search.matched,
-            "confirmed": t.node_search.confirmed,
-            "seeds": t.node_search.seeds.iter().map(|s| json!({
-                "a_from_b": pose_json(&s.a_from_b), "support": s.support,
-            })).collect::<Vec<_>>(),
-        },
+        "node_search": node_search_json(t.node_search.as_ref()),
         "seconds": seconds,
     });
     let Some(best) = &t.best else {
@@ -345,6 +363,22 @@ pub(super) fn pose_graph_json(t: &Tried, seconds: f64) -> serde_json::Value {
         "shown": shown,
     });
     out
+}
+
+/// `merge.json`'s `pose_graph.node_search`: what the search found, or why it did not run.
+fn node_search_json(searched: Option<&(NodeSearch, f64)>) -> serde_json::Value {
+    let Some((n, seconds)) = searched else {
+        return json!({"skipped": "a seed of the rigid match passed"});
+    };
+    json!({
+        "searched": n.searched,
+        "matched": n.matched,
+        "confirmed": n.confirmed,
+        "seeds": n.seeds.iter().map(|s| json!({
+            "a_from_b": pose_json(&s.a_from_b), "support": s.support,
+        })).collect::<Vec<_>>(),
+        "seconds": seconds,
+    })
 }
 
 /// Why the maps are not merged by the joint pose graph either, with the figures.

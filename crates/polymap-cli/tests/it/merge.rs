@@ -488,6 +488,9 @@ fn a_bent_map_is_refused_rigidly_and_bent_back_by_the_joint_pose_graph() {
     assert!(g["cross"]["used"].as_u64().unwrap() >= 5, "{g}");
     assert!(g["moved"]["b"]["max_m"].as_f64().unwrap() > 0.5, "{g}");
     assert_eq!(g["moved"]["a"]["max_m"], 0.0);
+    // A rigid seed passed: B's nodes were not searched over A.
+    assert_eq!(g["seeds"][0]["passes"], true, "{g}");
+    assert!(g["node_search"]["skipped"].is_string(), "{g}");
     let merged_m = laid_off("M");
     eprintln!("bent B laid {merged_m:.3} m off by the joint pose graph, {rigid_m:.3} m rigidly");
     assert!(

@@ -141,8 +141,9 @@ impl LoopCloser {
     }
 
     /// Loop closure that goes on from a saved map's nodes: this run's nodes are matched
-    /// against them too, and they never move (nor does this run's first node, where it
-    /// placed itself in the map).
+    /// against them too, and they never move; this run's first node is tied to the last of
+    /// them by where it placed itself ([`LoopParams::placed_sigma_m`]), and loops with them
+    /// may move it.
     pub fn continuing(
         params: LoopParams,
         align: AlignParams,
@@ -156,7 +157,7 @@ impl LoopCloser {
         closer.first_new = saved.len();
         closer.poses = saved.iter().map(|n| n.pose).collect();
         let mut graph = closer.worker.read(|g| g.clone());
-        graph.fixed = saved.len() + 1;
+        graph.fixed = saved.len();
         for node in saved {
             graph.poses.push(node.pose);
             graph.submaps.push(Submap {

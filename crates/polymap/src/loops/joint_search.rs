@@ -1,5 +1,5 @@
-//! Seeds of the joint pose graph found without a guess: each of B's loop nodes searched over
-//! the whole of map A by the whole-map correlative search ([`GlobalSearch`]), each of its
+//! Seeds of the joint pose graph found without a guess: every few of B's loop nodes searched
+//! over the whole of map A by the whole-map correlative search ([`GlobalSearch`]), each of its
 //! distinct peaks checked by the loop matcher against A's nodes there (as the joint graph
 //! matches a seeded node), the matches confirmed as the joint graph confirms its cross
 //! constraints, and the placements of B that most confirmed matches agree on returned.
@@ -33,6 +33,10 @@ pub struct NodeSearchParams {
     /// A node's points farther than this from its origin are left out of its search when
     /// enough are nearer, metres.
     pub max_range_m: f64,
+    /// Every `node_step`-th of B's nodes is searched (the first, then every step): the
+    /// search over the whole of A is the cost of a merge, and a true placement is confirmed
+    /// by searched nodes a few apart (within [`JointParams::agree_within_nodes`]).
+    pub node_step: usize,
     /// Seeds returned, at most.
     pub max_seeds: usize,
     /// Two placements of B agree (and make one seed) when they put a node within this
@@ -51,6 +55,7 @@ impl Default for NodeSearchParams {
             peaks_apart_m: 1.0,
             peaks_apart_deg: 10.0,
             max_range_m: 10.0,
+            node_step: 3,
             max_seeds: 3,
             seeds_apart_m: 2.0,
             seeds_apart_deg: 10.0,
@@ -68,6 +73,7 @@ impl NodeSearchParams {
             .within("peaks_apart_m", self.peaks_apart_m, 0.0, 100.0)
             .within("peaks_apart_deg", self.peaks_apart_deg, 0.0, 180.0)
             .above("max_range_m", self.max_range_m, 0.0, 1000.0)
+            .within("node_step", self.node_step, 1, 1000)
             .within("max_seeds", self.max_seeds, 1, 100)
             .within("seeds_apart_m", self.seeds_apart_m, 0.0, 1000.0)
             .within("seeds_apart_deg", self.seeds_apart_deg, 0.0, 180.0)
@@ -90,7 +96,7 @@ pub struct NodeSeed {
 pub struct NodeSearch {
     /// The seeds, most supported first, each apart from those before it.
     pub seeds: Vec<NodeSeed>,
-    /// B's nodes searched (those with enough points).
+    /// B's nodes searched (every `node_step`-th, of those with enough points).
     pub searched: usize,
     /// Matches the loop matcher accepted at the peaks.
     pub matched: usize,
@@ -98,9 +104,9 @@ pub struct NodeSearch {
     pub confirmed: usize,
 }
 
-/// Searches each of B's nodes (`b`, B's frame) over the whole of A (`a`) and returns the
-/// placements of B its confirmed matches agree on (see the module's documentation); `loops`,
-/// `align` and `grid_cell_m` (metres) as for [`super::joint_graph`].
+/// Searches every `node_step`-th of B's nodes (`b`, B's frame) over the whole of A (`a`) and
+/// returns the placements of B its confirmed matches agree on (see the module's
+/// documentation); `loops`, `align` and `grid_cell_m` (metres) as for [`super::joint_graph`].
 pub fn node_search_seeds(
     a: &[SavedNode],
     b: &[SavedNode],
@@ -124,7 +130,7 @@ pub fn node_search_seeds(
     let mut diagnostics = LoopDiagnostics::default();
     let mut cross: Vec<CrossEdge> = Vec::new();
     let mut searched = 0;
-    for k in 0..b.len() {
+    for k in (0..b.len()).step_by(params.node_step.max(1)) {
         let points = graph.submaps[na + k].points.clone();
         if points.len() < MIN_NODE_POINTS {
             continue;
@@ -248,6 +254,33 @@ mod tests {
         assert!(best.support >= 5, "{found:?}");
         assert!(found.confirmed >= best.support && found.matched >= found.confirmed);
         assert!(NodeSearchParams::default().validate().is_ok());
+    }
+
+    #[test]
+    fn every_third_node_is_searched_and_still_finds_b() {
+        // B's 19 nodes: the 1st, 4th, … 19th are searched by default (7), all with one step.
+        let (a, _) = nodes(0.0, 38.0, 0.0);
+        let (b, b_truth) = nodes(12.0, 30.0, 0.0);
+        let search = |node_step| {
+            node_search_seeds(
+                &a,
+                &b,
+                &LoopParams::default(),
+                &AlignParams::default(),
+                1.0,
+                &JointParams::default(),
+                &NodeSearchParams {
+                    node_step,
+                    ..NodeSearchParams::default()
+                },
+            )
+        };
+        let (every, third) = (search(1), search(3));
+        assert_eq!((every.searched, third.searched), (19, 7));
+        assert!(third.matched < every.matched, "{third:?} {every:?}");
+        let best = third.seeds.first().expect("a seed");
+        let d = b_truth[0].between(&best.a_from_b);
+        assert!(d.translation().length() < 0.1, "{third:?}");
     }
 
     #[test]

@@ -48,8 +48,7 @@ pub(super) struct NodeGraph {
     pub(super) last_closed: Option<usize>,
     /// Loop edges that would bend the graph a lot, waiting for a second that agrees.
     pub(super) held: Vec<Edge>,
-    /// Nodes below this never move: node 0 (the map frame), or the nodes of a saved map and
-    /// the first node of the run that continues it.
+    /// Nodes below this never move: node 0 (the map frame), or the nodes of a saved map.
     pub(super) fixed: usize,
 }
 
@@ -94,7 +93,8 @@ impl NodeGraph {
         let optimize_from = self.take_edges(k, take, &mut out.diagnostics);
         out.diagnostics.match_s = clock.elapsed().as_secs_f64();
         // Node 0 holds the map frame (the first scan's pose): it never moves; nor do a saved
-        // map's nodes, nor the node where a run continuing it placed itself.
+        // map's nodes (the node where a run continuing it placed itself is tied to them by
+        // its placement).
         let Some(first) = optimize_from.map(|f| f.max(self.fixed)) else {
             return out;
         };
@@ -129,6 +129,20 @@ impl NodeGraph {
                     robust: false,
                 });
                 last.compose(&z)
+            }
+            // The first node of a run on a saved map: no motion joins it to the saved map's
+            // last node, its placement does (`placed_sigma_m`).
+            (Some(last), None) => {
+                self.edges.push(Edge {
+                    from: k - 1,
+                    to: k,
+                    measured: last.between(&done.pose),
+                    sigma_m: self.params.placed_sigma_m,
+                    sigma_rad: self.params.placed_sigma_deg.to_radians(),
+                    doubt_m2: glam::DMat2::ZERO,
+                    robust: false,
+                });
+                done.pose
             }
             _ => done.pose,
         };

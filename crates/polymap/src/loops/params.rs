@@ -72,6 +72,14 @@ pub struct LoopParams {
     pub loop_sigma_m: f64,
     /// ...and rotation, degrees.
     pub loop_sigma_deg: f64,
+    /// Standard deviation of the edge that ties the first node of a run on a saved map to
+    /// where the run placed itself (relative to the saved map's last node), metres...
+    /// The placement is a measurement like any other: the loops the run closes with the
+    /// saved nodes may move that node, so its error does not bend the run between it and
+    /// them. 0.5 m and 10°: the placement's own agreement between successive searches.
+    pub placed_sigma_m: f64,
+    /// ...and rotation, degrees.
+    pub placed_sigma_deg: f64,
     /// A loop edge this far (metres)...
     pub confirm_above_m: f64,
     /// ...or this far (degrees) from the graph's prediction is held until another loop edge
@@ -116,6 +124,8 @@ impl Default for LoopParams {
             doubtful_step_sigma: 1.0,
             loop_sigma_m: 0.05,
             loop_sigma_deg: 0.5,
+            placed_sigma_m: 0.5,
+            placed_sigma_deg: 10.0,
             confirm_above_m: 0.3,
             confirm_above_deg: 2.0,
             confirm_within_nodes: 0,
@@ -169,6 +179,8 @@ impl LoopParams {
             .within("doubtful_step_sigma", self.doubtful_step_sigma, 0.0, 100.0)
             .above("loop_sigma_m", self.loop_sigma_m, 0.0, finite)
             .above("loop_sigma_deg", self.loop_sigma_deg, 0.0, finite)
+            .above("placed_sigma_m", self.placed_sigma_m, 0.0, finite)
+            .above("placed_sigma_deg", self.placed_sigma_deg, 0.0, finite)
             .within("confirm_above_m", self.confirm_above_m, 0.0, 1e4)
             .within("confirm_above_deg", self.confirm_above_deg, 0.0, 180.0)
             .within(
