@@ -2,11 +2,25 @@
 //! visible message otherwise). Short prefixes, and a few whole logs that the release build
 //! maps in seconds (the CI runs it); sweeps over many runs are benchmarks (`scripts/sweep`).
 
+use std::path::Path;
+
 use polymap::config::Config;
 use polymap::mapper::Mapper;
 use polymap_io::carmen::{CarmenReader, ReaderOptions};
 
 use crate::support::{datasets, map_quietly, polymap, text};
+
+/// Maps `log` into `out` (quietly, with `extra` arguments), which must succeed: its standard
+/// error and its summary.json.
+fn map_with_summary(log: &Path, out: &Path, extra: &[&str]) -> (String, serde_json::Value) {
+    let o = map_quietly(log, out, extra);
+    assert!(o.status.success(), "{}", text(&o));
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    (
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        serde_json::from_str(&summary).unwrap(),
+    )
+}
 
 /// Intel's first 150 scans are taken standing still in a corridor. A constant-velocity guess
 /// can turn ICP's drift along the corridor into a 47 m slide. A person walking by moves the
@@ -43,15 +57,7 @@ fn a_sparse_aces_run_that_breaks_is_told_by_the_odometry_and_the_dense_one_is_no
     };
     let log = dir.join("aces/aces.clf");
     let out = tempfile::tempdir().unwrap();
-    let run = |name: &str, extra: &[&str]| {
-        let o = map_quietly(&log, &out.path().join(name), extra);
-        assert!(o.status.success(), "{}", text(&o));
-        let summary: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(out.path().join(name).join("summary.json")).unwrap(),
-        )
-        .unwrap();
-        (String::from_utf8_lossy(&o.stderr).into_owned(), summary)
-    };
+    let run = |name: &str, extra: &[&str]| map_with_summary(&log, &out.path().join(name), extra);
     let (stderr, summary) = run("sparse", &["--every", "10", "--every-offset", "1"]);
     assert!(stderr.contains("off the log's odometry"), "{stderr}");
     let scans = summary["scans"].as_u64().unwrap();
@@ -81,19 +87,10 @@ fn intel_with_a_short_laser_warns_of_its_weakly_observed_travel_and_the_full_las
     let short = out.path().join("short.toml");
     std::fs::write(&short, "[extract]\nmax_range_m = 5.6\n").unwrap();
     let run = |name: &str, extra: &[&str]| {
-        let o = map_quietly(&log, &out.path().join(name), extra);
-        assert!(o.status.success(), "{}", text(&o));
-        let summary: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(out.path().join(name).join("summary.json")).unwrap(),
-        )
-        .unwrap();
-        let t = &summary["tracking"];
+        let (stderr, summary) = map_with_summary(&log, &out.path().join(name), extra);
+        let t = summary["tracking"].clone();
         let share = t["weak_travel_m"].as_f64().unwrap() / t["travel_m"].as_f64().unwrap();
-        (
-            String::from_utf8_lossy(&o.stderr).into_owned(),
-            share,
-            t.clone(),
-        )
+        (stderr, share, t)
     };
     let warning = "of the travel";
     let (stderr, share, t) = run("short", &["--config", short.to_str().unwrap()]);

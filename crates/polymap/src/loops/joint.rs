@@ -228,8 +228,9 @@ pub fn joint_graph(
         doubt_m2: glam::DMat2::ZERO,
         robust: true,
     };
-    let mut poses = joint.poses;
-    for _ in 0..params.rounds {
+    // B's own edges and the cross constraints used, then B's nodes optimised from their seeds
+    // with A's fixed.
+    let solve = |poses: &mut [Pose2], edges: &mut Vec<Edge>, cross: &[CrossEdge]| {
         edges.truncate(own_edges);
         edges.extend(
             cross
@@ -238,10 +239,16 @@ pub fn joint_graph(
                 .map(cross_edge),
         );
         poses[na..].copy_from_slice(&b_seeded);
-        if edges.len() == own_edges {
+        if edges.len() > own_edges {
+            graph::optimize(poses, edges, na..na + b.len(), params.max_iterations);
+        }
+    };
+    let mut poses = joint.poses;
+    for _ in 0..params.rounds {
+        if !cross.iter().any(|c| c.verdict == CrossVerdict::Used) {
             break;
         }
-        graph::optimize(&mut poses, &edges, na..na + b.len(), params.max_iterations);
+        solve(&mut poses, &mut edges, &cross);
         let mut rejected = false;
         for c in &mut cross {
             let off = poses[c.a_node]
@@ -261,20 +268,9 @@ pub fn joint_graph(
             break;
         }
     }
-    // The last round may have rejected edges it was optimised with: solve once more without.
-    if cross.iter().any(|c| c.verdict == CrossVerdict::Used) {
-        edges.truncate(own_edges);
-        edges.extend(
-            cross
-                .iter()
-                .filter(|c| c.verdict == CrossVerdict::Used)
-                .map(cross_edge),
-        );
-        poses[na..].copy_from_slice(&b_seeded);
-        graph::optimize(&mut poses, &edges, na..na + b.len(), params.max_iterations);
-    } else {
-        poses[na..].copy_from_slice(&b_seeded);
-    }
+    // The last round may have rejected edges it was optimised with: solve once more without
+    // (with none left, B stays at its seeds).
+    solve(&mut poses, &mut edges, &cross);
     JointGraph {
         b_poses: poses[na..].to_vec(),
         b_seeded,

@@ -71,8 +71,8 @@ pub struct TrackingSummary {
     /// observed by few points or none (`weakly_observed`, `degenerate`, `slowed`), metres:
     /// there the motion along that direction came from the motion prior or a few points.
     /// Scattered along corridors such steps are common where tracking is accurate (the
-    /// benchmark logs' dense runs 0–4 % of the travel, their runs of every 5th and 10th scan
-    /// up to 5.5 %, the built-in hallway 6.9–8.0 % over noise seeds); many slightly short ones
+    /// benchmark logs' dense runs 0–3.3 % of the travel, their runs of every 5th and 10th scan
+    /// up to 6.8 %, the built-in hallway 6.9–8.0 % over noise seeds); many slightly short ones
     /// add up to a bent or shortened map without one long weak stretch (the logs with the
     /// laser cut to 5.6 m: Intel 12.7 %, 0.28 m mean relation error against 0.026 m; ACES
     /// 25.7 %, 0.76 m). Above [`WEAK_TRAVEL_SHARE`] of the travel the run warns.
@@ -83,9 +83,9 @@ pub struct TrackingSummary {
     /// [`MAX_WEAK_TRAVEL_PARTS`] (those with the most weak travel).
     #[serde(default)]
     pub weak_travel_parts: Vec<WeakTravelPart>,
-    /// The stretch of travel going on.
+    /// The stretch of travel going on, from its first step.
     #[serde(skip)]
-    open_part: WeakTravelPart,
+    open_part: Option<WeakTravelPart>,
 }
 
 /// A stretch of consecutive scans and how much of its travel was weakly observed
@@ -246,15 +246,16 @@ impl TrackingSummary {
         let weak_m = if weakly_observed { tracked_m } else { 0.0 };
         self.travel_m += tracked_m;
         self.weak_travel_m += weak_m;
-        let part = &mut self.open_part;
-        if part.travel_m == 0.0 && part.weak_travel_m == 0.0 {
-            part.first = t;
-        }
+        let part = self.open_part.get_or_insert(WeakTravelPart {
+            first: t,
+            ..WeakTravelPart::default()
+        });
         part.last = t;
         part.travel_m += tracked_m;
         part.weak_travel_m += weak_m;
-        if part.travel_m >= WEAK_TRAVEL_PART_M {
-            let done = std::mem::take(part);
+        if part.travel_m >= WEAK_TRAVEL_PART_M
+            && let Some(done) = self.open_part.take()
+        {
             self.keep_part(done);
         }
     }
@@ -280,8 +281,9 @@ impl TrackingSummary {
     /// Ends the stretch of travel going on (at the end of a run): listed when it is over half
     /// as long as the others and weak enough.
     pub(super) fn close_part(&mut self) {
-        let part = std::mem::take(&mut self.open_part);
-        if part.travel_m >= 0.5 * WEAK_TRAVEL_PART_M {
+        if let Some(part) = self.open_part.take()
+            && part.travel_m >= 0.5 * WEAK_TRAVEL_PART_M
+        {
             self.keep_part(part);
         }
     }
