@@ -47,6 +47,12 @@ pub struct MapperParams {
     /// the best result is kept if it has at least twice the inliers and twice this share (0
     /// turns this off). Not with the odometry prior, whose guess carries the turn.
     pub recover_below_inlier_share: f64,
+    /// In a localize run, the span over which the trajectory takes its motion from the run's
+    /// own tracking on a fresh map of its scans rather than from the saved map (the standard
+    /// deviation of a Gaussian window in time, seconds; 0 turns the own tracking off): over
+    /// short spans, a scan tracked against a finished map is less precise than against the walls
+    /// the last scans built. See `mapper/own_motion.rs`.
+    pub localize_own_motion_s: f64,
 }
 
 impl Default for MapperParams {
@@ -57,6 +63,7 @@ impl Default for MapperParams {
             keep_observed_velocity: true,
             icp_from_best_start_only: true,
             recover_below_inlier_share: 0.15,
+            localize_own_motion_s: 3.0,
         }
     }
 }
@@ -68,6 +75,12 @@ impl MapperParams {
             .share(
                 "recover_below_inlier_share",
                 self.recover_below_inlier_share,
+            )
+            .within(
+                "localize_own_motion_s",
+                self.localize_own_motion_s,
+                0.0,
+                60.0,
             )
             .done()
     }
