@@ -122,7 +122,10 @@ pub enum MapRole {
     /// close in): measured, tracking on the saved walls alone was lost or weak where clutter
     /// hid them and followed wrong recoveries (relation error on the second half of Intel 0.151
     /// m against the working copy's 0.035 m; ACES 0.54 m against 0.21 m). The copy is never
-    /// output: [`Mapper::segments`] and [`Mapper::polylines`] give the saved map.
+    /// output: [`Mapper::segments`] and [`Mapper::polylines`] give the saved map. The scans are
+    /// also tracked on a fresh map of their own, and [`Mapper::trajectory`] after
+    /// [`Mapper::finish`] takes its motion over a few seconds from that map and its place from
+    /// the working copy (`mapper/own_motion.rs`).
     Localize,
 }
 

@@ -18,8 +18,9 @@ pub enum MotionPrior {
 }
 
 /// Where ICP starts for each scan (section `[mapper]`): the motion prior, the extra starts and
-/// how one is chosen, and the recovery after a gap. Every key but `icp_from_best_start_only`
-/// is one the paper preset sets otherwise, so that its printed configuration reads back as it.
+/// how one is chosen, the recovery after a gap, and a localize run's own tracking. Every key
+/// but `icp_from_best_start_only` and `localize_own_motion_s` is one the paper preset sets
+/// otherwise, so that its printed configuration reads back as it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MapperParams {
