@@ -578,10 +578,10 @@ impl Mapper {
 mod observed;
 mod own_motion;
 mod placement;
-
-use own_motion::OwnMotion;
 #[cfg(test)]
 mod tests;
+
+use own_motion::OwnMotion;
 
 /// The doubt on a scan's motion for the pose graph: along the direction ICP could not observe
 /// when the scan is `weak` for it (`degenerate`: the motion along it came from the prior),
