@@ -122,7 +122,10 @@ pub enum MapRole {
     /// close in): measured, tracking on the saved walls alone was lost or weak where clutter
     /// hid them and followed wrong recoveries (relation error on the second half of Intel 0.151
     /// m against the working copy's 0.035 m; ACES 0.54 m against 0.21 m). The copy is never
-    /// output: [`Mapper::segments`] and [`Mapper::polylines`] give the saved map.
+    /// output: [`Mapper::segments`] and [`Mapper::polylines`] give the saved map. The scans are
+    /// also tracked on a fresh map of their own, and [`Mapper::trajectory`] after
+    /// [`Mapper::finish`] takes its motion over a few seconds from that map and its place from
+    /// the working copy (`mapper/own_motion.rs`).
     Localize,
 }
 
@@ -165,6 +168,11 @@ pub struct Mapper {
     tracker: Tracker,
     loops: LoopCloser,
     trajectory: Vec<Pose2>,
+    /// A localize run's own tracking of its scans on a fresh map (`mapper.localize_own_motion_s`
+    /// above 0): its motion over short spans ([`own_motion`])...
+    own: Option<OwnMotion>,
+    /// ...and the trajectory [`Mapper::finish`] fused from it and `trajectory`.
+    fused: Option<Vec<Pose2>>,
 }
 
 impl Mapper {
@@ -193,6 +201,8 @@ impl Mapper {
                 config.map.grid_cell_m,
             ),
             trajectory: Vec::new(),
+            own: None,
+            fused: None,
             config,
         }
     }
@@ -219,6 +229,9 @@ impl Mapper {
         if role == MapRole::Localize {
             let given = observations.clone().unwrap_or_default();
             mapper.saved = Some((prior.segments.clone(), given));
+            if c.mapper.localize_own_motion_s > 0.0 {
+                mapper.own = Some(OwnMotion::new(c));
+            }
         }
         match observations {
             Some(observations) => {
@@ -294,8 +307,13 @@ impl Mapper {
 
     /// The pose of every scan pushed so far (map frame), with every loop closure's correction
     /// applied: the best estimate, which may differ from the poses [`Mapper::push`] returned.
+    /// After [`Mapper::finish`], a localize run's poses take their motion over short spans from
+    /// the run's own map and their place from the saved map ([`own_motion`]).
     pub fn trajectory(&self) -> &[Pose2] {
-        &self.trajectory
+        match &self.fused {
+            Some(fused) if fused.len() == self.trajectory.len() => fused,
+            _ => &self.trajectory,
+        }
     }
 
     /// Takes in every outcome of loop closure still pending (see [`crate::loops`]); call it
@@ -313,6 +331,11 @@ impl Mapper {
         if let Some(c) = self.loops.finish(&mut diagnostics) {
             self.apply_correction(&c);
         }
+        let window_s = self.config.mapper.localize_own_motion_s;
+        self.fused = self
+            .own
+            .as_ref()
+            .map(|own| own.fused(&self.trajectory, window_s));
         match self.loops.failure() {
             Some(failure) => Err(failure.clone()),
             None => Ok(diagnostics),
@@ -400,6 +423,7 @@ impl Mapper {
         let t = self.first_scan.saturating_add(i);
         let at = ScanNumber { run: i, map: t };
         let clock = Instant::now();
+        let own_scan = self.own.as_ref().map(|_| scan.clone());
         // Track, then merge, observe and close loops. A run on a saved map searches for its
         // place first (`place_scan`).
         let tracked = match self.placement {
@@ -415,6 +439,9 @@ impl Mapper {
             off_odometry,
         } = tracked;
         let placed = self.placement == Placement::Placed;
+        if let (Some(own), Some(own_scan)) = (self.own.as_mut(), own_scan) {
+            own.push(own_scan, placed && tracking.verdict != Verdict::Lost);
+        }
         let aligned = Instant::now();
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
@@ -549,9 +576,12 @@ impl Mapper {
 }
 
 mod observed;
+mod own_motion;
 mod placement;
 #[cfg(test)]
 mod tests;
+
+use own_motion::OwnMotion;
 
 /// The doubt on a scan's motion for the pose graph: along the direction ICP could not observe
 /// when the scan is `weak` for it (`degenerate`: the motion along it came from the prior),

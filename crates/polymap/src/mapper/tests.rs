@@ -434,3 +434,96 @@ fn odometry_that_cannot_witness_flags_nothing() {
     let blind = |i: usize| (60..64).contains(&i);
     assert_eq!(quiet(&|_, truth| *truth, &blind), (0, 0));
 }
+
+/// `walls` as a finished map whose walls are right on the whole but off by up to 8 cm in ways
+/// that differ from place to place: each wall cut into pieces of at most 0.6 m, each piece
+/// moved across the wall by its own amount.
+fn uneven_saved_map(walls: &[Segment]) -> Vec<MapSegment> {
+    let mut pieces = Vec::new();
+    for (w, wall) in walls.iter().enumerate() {
+        let along = wall.end - wall.start;
+        let normal = Vec2::new(-along.y, along.x).normalize();
+        let n = (along.length() / 0.6).ceil() as usize;
+        for k in 0..n {
+            let off = 0.08 * ((k * 7 + w * 3) as f64 * 2.4).sin();
+            let (a, b) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+            pieces.push(MapSegment {
+                segment: Segment::new(
+                    wall.start + along * a + normal * off,
+                    wall.start + along * b + normal * off,
+                ),
+                born_scan: 0,
+            });
+        }
+    }
+    pieces
+}
+
+/// Localizes a drive through the room in `uneven_saved_map`; returns the run's trajectory
+/// (after `finish`) with the true poses.
+fn localize_in_uneven_map(own_motion_s: f64) -> Vec<(Pose2, Pose2)> {
+    let walls = room();
+    let mut config = Config::default();
+    config.mapper.localize_own_motion_s = own_motion_s;
+    let prior = PriorMap {
+        segments: uneven_saved_map(&walls),
+        scans: 1,
+        nodes: Vec::new(),
+        observations: None,
+    };
+    let truth: Vec<Pose2> = (0..120)
+        .map(|i| Pose2::new(0.05 * i as f64, 1.0, 0.1 * (i as f64 / 30.0).sin()))
+        .collect();
+    let mut mapper = Mapper::on_map(config, prior, MapRole::Localize, Some(truth[0]));
+    for (i, t) in truth.iter().enumerate() {
+        // A laser of 4 m with up to 1 cm of noise: pieces of wall come into sight and go out of
+        // it as the robot drives.
+        let mut scan = scan_from(&walls, t, i as f64 * 0.1);
+        for (k, r) in scan.ranges_m.iter_mut().enumerate() {
+            let noise = 0.01 * ((i * 181 + k) as f64 * 12.9898).sin();
+            *r = if *r > 4.0 {
+                scan.max_range_m
+            } else {
+                *r + noise
+            };
+        }
+        mapper.push(&scan);
+    }
+    mapper.finish().unwrap();
+    truth
+        .into_iter()
+        .zip(mapper.trajectory().iter().copied())
+        .collect()
+}
+
+/// Mean error of the steps between consecutive scans, and the largest distance from the
+/// truth (the saved map's frame is the truth's), metres.
+fn step_and_place_errors(pairs: &[(Pose2, Pose2)]) -> (f64, f64) {
+    let steps: Vec<f64> = pairs
+        .windows(2)
+        .map(|w| {
+            let (true_step, step) = (w[0].0.between(&w[1].0), w[0].1.between(&w[1].1));
+            (step.translation() - true_step.translation()).length()
+        })
+        .collect();
+    let place = pairs
+        .iter()
+        .map(|(t, e)| t.translation().distance(e.translation()))
+        .fold(0.0, f64::max);
+    (steps.iter().sum::<f64>() / steps.len() as f64, place)
+}
+
+/// Tracked against a finished map whose walls are off by centimetres from place to place, each
+/// scan is put off on its own by the pieces it sees; a localize run takes its motion over short
+/// spans from its own map of the scans, and its place from the saved map. Measured: steps
+/// 3.5 → 2.3 mm off on average, the farthest pose 8.1 → 3.9 cm from the truth.
+#[test]
+fn a_localize_run_takes_its_short_motion_from_its_own_map_and_its_place_from_the_saved_map() {
+    let (raw_steps, raw_place) = step_and_place_errors(&localize_in_uneven_map(0.0));
+    let (steps, place) = step_and_place_errors(&localize_in_uneven_map(3.0));
+    assert!(
+        steps < 0.8 * raw_steps,
+        "steps {raw_steps} → {steps} m off on average"
+    );
+    assert!(place < raw_place, "{raw_place} → {place} m from the truth");
+}

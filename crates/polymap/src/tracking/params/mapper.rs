@@ -18,8 +18,9 @@ pub enum MotionPrior {
 }
 
 /// Where ICP starts for each scan (section `[mapper]`): the motion prior, the extra starts and
-/// how one is chosen, and the recovery after a gap. Every key but `icp_from_best_start_only`
-/// is one the paper preset sets otherwise, so that its printed configuration reads back as it.
+/// how one is chosen, the recovery after a gap, and a localize run's own tracking. Every key
+/// but `icp_from_best_start_only` and `localize_own_motion_s` is one the paper preset sets
+/// otherwise, so that its printed configuration reads back as it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MapperParams {
@@ -47,6 +48,12 @@ pub struct MapperParams {
     /// the best result is kept if it has at least twice the inliers and twice this share (0
     /// turns this off). Not with the odometry prior, whose guess carries the turn.
     pub recover_below_inlier_share: f64,
+    /// In a localize run, the span over which the trajectory takes its motion from the run's
+    /// own tracking on a fresh map of its scans rather than from the saved map (the standard
+    /// deviation of a Gaussian window in time, seconds; 0 turns the own tracking off): over
+    /// short spans, a scan tracked against a finished map is less precise than against the walls
+    /// the last scans built. See `mapper/own_motion.rs`.
+    pub localize_own_motion_s: f64,
 }
 
 impl Default for MapperParams {
@@ -57,6 +64,7 @@ impl Default for MapperParams {
             keep_observed_velocity: true,
             icp_from_best_start_only: true,
             recover_below_inlier_share: 0.15,
+            localize_own_motion_s: 3.0,
         }
     }
 }
@@ -68,6 +76,12 @@ impl MapperParams {
             .share(
                 "recover_below_inlier_share",
                 self.recover_below_inlier_share,
+            )
+            .within(
+                "localize_own_motion_s",
+                self.localize_own_motion_s,
+                0.0,
+                60.0,
             )
             .done()
     }
