@@ -21,17 +21,28 @@ use super::Mapper;
 #[derive(Debug, Clone)]
 pub(super) struct OwnMotion {
     mapper: Box<Mapper>,
-    /// Per scan of the run: its time, seconds (its stamp, never before the scan before's: logs
-    /// have stamps that step back; a scan without one is taken `STEP_WITHOUT_STAMP_S` later)...
+    /// Per scan of the run: its time, seconds (its stamp plus `offset_s`, never before the scan
+    /// before's: logs have stamps that step back; a scan without one is taken
+    /// `STEP_WITHOUT_STAMP_S` later)...
     stamps_s: Vec<f64>,
     /// ...whether tracking on the saved map placed it (not lost)...
     placed: Vec<bool>,
-    /// ...and whether its own tracking lost it (its motion from the scan before is unknown).
+    /// ...and whether its own tracking lost it (its own pose is a poor fit or a guess: its
+    /// motion from the scans before and to those after is unknown).
     own_lost: Vec<bool>,
+    /// What the stamps since the last clock set back (`SET_BACK_S`) are moved by, seconds.
+    offset_s: f64,
 }
 
 /// A scan without a stamp is taken this long after the one before, seconds.
 const STEP_WITHOUT_STAMP_S: f64 = 0.1;
+
+/// A stamp more than this before the time of the scan before is a clock set back (a reset, logs
+/// joined), not the jitter of a log's stamps (Intel's step back by up to 0.9 s), seconds: the
+/// scan is taken `STEP_WITHOUT_STAMP_S` after the one before and the stamps after it count on
+/// from there. Held at the time before instead, every scan until the stamps caught up would be
+/// at one time: all of them within one another's window, at equal weight.
+const SET_BACK_S: f64 = 2.0;
 
 impl OwnMotion {
     /// Own tracking with `config` (loop closure off).
@@ -43,18 +54,14 @@ impl OwnMotion {
             stamps_s: Vec::new(),
             placed: Vec::new(),
             own_lost: Vec::new(),
+            offset_s: 0.0,
         }
     }
 
     /// Tracks `scan` on the run's own map; `placed` whether the saved map's tracking placed it.
     pub(super) fn push(&mut self, scan: crate::scan::PreparedScan, placed: bool) {
         let previous = self.stamps_s.last().copied();
-        let stamp = match (scan.stamp_s, previous) {
-            (Some(s), Some(p)) => s.max(p),
-            (Some(s), None) => s,
-            (None, Some(p)) => p + STEP_WITHOUT_STAMP_S,
-            (None, None) => 0.0,
-        };
+        let stamp = time_of(scan.stamp_s, previous, &mut self.offset_s);
         let update = self.mapper.push_prepared(scan);
         self.stamps_s.push(stamp);
         self.placed.push(placed);
@@ -82,6 +89,22 @@ impl OwnMotion {
     }
 }
 
+/// The time of a scan stamped `stamp_s` after a scan at time `previous_s` (see
+/// [`OwnMotion`]'s `stamps_s`), seconds; `offset_s` is what the stamps are moved by since the
+/// last clock set back, and moves on at the next.
+fn time_of(stamp_s: Option<f64>, previous_s: Option<f64>, offset_s: &mut f64) -> f64 {
+    match (stamp_s.map(|s| s + *offset_s), previous_s) {
+        (Some(s), Some(p)) if s < p - SET_BACK_S => {
+            *offset_s += p + STEP_WITHOUT_STAMP_S - s;
+            p + STEP_WITHOUT_STAMP_S
+        }
+        (Some(s), Some(p)) => s.max(p),
+        (Some(s), None) => s,
+        (None, Some(p)) => p + STEP_WITHOUT_STAMP_S,
+        (None, None) => 0.0,
+    }
+}
+
 /// One scan of a localize run, for [`fuse`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(crate) struct Sample {
@@ -91,15 +114,16 @@ pub(crate) struct Sample {
     pub placed: bool,
     /// Its pose on the run's own map (that map's frame).
     pub own: Pose2,
-    /// Whether its own tracking lost it: its own motion from the scan before is unknown.
+    /// Whether its own tracking lost it: its own motion from the scans before and to those
+    /// after is unknown.
     pub own_lost: bool,
     /// Its time, seconds (never before the scan before's).
     pub stamp_s: f64,
 }
 
 /// Each scan's pose from the others' places and its own motion: every placed scan `j` within
-/// three `window_s` of scan `i` (and no lost own scan between them) puts `i` at `in_map_j ∘
-/// (own_j⁻¹ ∘ own_i)`; the pose is their average weighted by a Gaussian of the time between
+/// three `window_s` of scan `i` (neither of them, nor any scan between them, lost by its own
+/// tracking, unless `j` is `i`) puts `i` at `in_map_j ∘ (own_j⁻¹ ∘ own_i)`; the pose is their average weighted by a Gaussian of the time between
 /// (standard deviation `window_s`). Over spans shorter than the window the motion is the
 /// own map's; over longer ones the place follows the saved map. A scan with no placed scan in
 /// reach, and every scan with `window_s` 0, keeps its pose from the saved map.
@@ -110,6 +134,8 @@ pub(crate) fn fuse(samples: &[Sample], window_s: f64) -> Vec<Pose2> {
     }
     let reach_s = 3.0 * window_s;
     // Scans with one unbroken own motion: `i` in `span_start[i]..span_end[i]`.
+    // A scan its own tracking lost is a span of its own: its own pose is a poor fit or a
+    // guess, so its motion to the scans after it is as unknown as from those before.
     let mut span_start = vec![0; n];
     let mut start = 0;
     for (i, s) in samples.iter().enumerate() {
@@ -117,10 +143,16 @@ pub(crate) fn fuse(samples: &[Sample], window_s: f64) -> Vec<Pose2> {
             start = i;
         }
         span_start[i] = start;
+        if s.own_lost {
+            start = i + 1;
+        }
     }
     let mut span_end = vec![n; n];
     let mut end = n;
     for (i, s) in samples.iter().enumerate().rev() {
+        if s.own_lost {
+            end = i + 1;
+        }
         span_end[i] = end;
         if s.own_lost {
             end = i;
@@ -233,5 +265,58 @@ mod tests {
         samples[50].own_lost = false;
         let leaked = fuse(&samples, 3.0);
         assert!((leaked[49].x_m - 4.9).abs() > 0.1, "{:?}", leaked[49]);
+    }
+
+    fn times(stamps: &[Option<f64>]) -> Vec<f64> {
+        let (mut out, mut offset_s) = (Vec::<f64>::new(), 0.0);
+        for s in stamps {
+            let t = time_of(*s, out.last().copied(), &mut offset_s);
+            out.push(t);
+        }
+        out
+    }
+
+    /// Stamps that step back a little are held at the time before; a clock set back (here by
+    /// 100 s) counts on from the time before, so that the scans after it do not all fall on one
+    /// time; a scan without a stamp is one step later.
+    #[test]
+    fn times_never_step_back_and_a_clock_set_back_counts_on() {
+        let stamps = [
+            Some(100.0),
+            Some(100.1),
+            Some(99.5),
+            Some(100.3),
+            None,
+            Some(0.0),
+            Some(0.1),
+            Some(0.2),
+        ];
+        let expected = [100.0, 100.1, 100.1, 100.3, 100.4, 100.5, 100.6, 100.7];
+        for (t, e) in times(&stamps).iter().zip(expected) {
+            assert!((t - e).abs() < 1e-9, "{:?}", times(&stamps));
+        }
+    }
+
+    /// A scan its own tracking lost keeps a poor fit (or the motion prior's guess) on the own
+    /// map, while the scans after it are tracked on that map again: its own pose moves neither
+    /// itself nor the scans after it.
+    #[test]
+    fn a_scan_the_own_tracking_lost_moves_nothing_by_its_own_pose() {
+        let mut samples: Vec<Sample> = (0..100)
+            .map(|i| {
+                let t = i as f64 * 0.1;
+                sample(t, Pose2::new(t, 0.0, 0.0), Pose2::new(t, 0.0, 0.0))
+            })
+            .collect();
+        samples[50].own_lost = true;
+        samples[50].own = Pose2::new(6.0, 0.5, 0.3);
+        let fused = fuse(&samples, 3.0);
+        for (i, p) in fused.iter().enumerate() {
+            let t = i as f64 * 0.1;
+            assert!(
+                (p.x_m - t).abs() < 1e-9 && p.y_m.abs() < 1e-9 && p.theta_rad.abs() < 1e-9,
+                "{i}: {p:?}"
+            );
+        }
     }
 }
