@@ -101,7 +101,46 @@ pub(crate) fn pairs_within_self_walk_limit(
         pairs.retain(|(i, j)| i < j);
         return pairs;
     }
-    walk_pairs(segs, segs, gap_m, true)
+    sweep_pairs(segs, gap_m)
+}
+
+/// [`walk_pairs`] of `segs` with itself, `later_only`, by a sweep along x: with the segments in
+/// order of their boxes' lowest x, a segment meets only those after it whose box starts within
+/// the gap of its box's end; beyond, their boxes are further than `gap_m` apart along x alone
+/// (by a margin of 10⁻⁹ relative, far above rounding, so [`boxes_within`] would be false too).
+/// Every other pair is tested as the walk tests it: the same pairs, at a fraction of the tests
+/// (a simplified local map holds a few hundred segments, most far apart).
+fn sweep_pairs(segs: &[Segment], gap_m: f64) -> Vec<(usize, usize)> {
+    let boxes: Vec<(Vec2, Vec2)> = segs.iter().map(Segment::bounds).collect();
+    let finite = boxes
+        .iter()
+        .all(|(lo, hi)| lo.is_finite() && hi.is_finite());
+    if !(finite && gap_m.is_finite()) {
+        return walk_pairs(segs, segs, gap_m, true);
+    }
+    let reach = gap_m.abs() * (1.0 + 1e-9) + 1e-9;
+    let mut order: Vec<usize> = (0..segs.len()).collect();
+    order.sort_unstable_by(|&a, &b| boxes[a].0.x.total_cmp(&boxes[b].0.x));
+    let mut out = Vec::new();
+    for (k, &i) in order.iter().enumerate() {
+        let limit = boxes[i].1.x + reach;
+        for &j in &order[k + 1..] {
+            if boxes[j].0.x > limit {
+                break;
+            }
+            // The lower index first, as the walk tests the pair.
+            let (a, b) = (i.min(j), i.max(j));
+            if boxes_within(boxes[a], boxes[b], gap_m)
+                && segs[a]
+                    .distance_to_segment_within(&segs[b], gap_m)
+                    .is_some()
+            {
+                out.push((a, b));
+            }
+        }
+    }
+    out.sort_unstable();
+    out
 }
 
 /// False when two bounding boxes are further than `gap_m` apart, so that the segments inside
@@ -109,4 +148,42 @@ pub(crate) fn pairs_within_self_walk_limit(
 pub(crate) fn boxes_within(a: (Vec2, Vec2), b: (Vec2, Vec2), gap_m: f64) -> bool {
     let gap = (b.0 - a.1).max(a.0 - b.1).max(Vec2::ZERO);
     gap.length_squared() <= gap_m * gap_m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The sweep finds exactly the walk's pairs, boxes exactly the gap apart included.
+    #[test]
+    fn the_sweep_finds_the_walks_pairs() {
+        let mut seed = 7u64;
+        let mut next = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for round in 0..40 {
+            let n = 5 + round * 7;
+            let mut segs: Vec<Segment> = (0..n)
+                .map(|_| {
+                    let a = Vec2::new(next() * 12.0, next() * 12.0);
+                    let d = Vec2::new(next() * 2.0 - 1.0, next() * 2.0 - 1.0);
+                    Segment::new(a, a + d)
+                })
+                .collect();
+            // Boxes exactly 0.5 m apart along x, and touching.
+            segs.push(Segment::new(Vec2::new(20.0, 0.0), Vec2::new(21.0, 0.0)));
+            segs.push(Segment::new(Vec2::new(21.5, 0.0), Vec2::new(22.0, 0.0)));
+            segs.push(Segment::new(Vec2::new(22.0, 0.0), Vec2::new(22.0, 1.0)));
+            for gap in [0.0, 0.1, 0.5, 1.3] {
+                assert_eq!(
+                    sweep_pairs(&segs, gap),
+                    walk_pairs(&segs, &segs, gap, true),
+                    "{n} segments, gap {gap}"
+                );
+            }
+        }
+    }
 }

@@ -3,7 +3,6 @@
 
 use super::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
-use std::cmp::Ordering;
 use std::collections::BinaryHeap;
 
 /// The rotations of a window: for each, the points' cells at zero offset, all rotations in
@@ -56,21 +55,22 @@ pub(super) struct Block {
     pub(super) bound: f32,
 }
 
-/// A block waiting to be opened, compact (a frontier holds thousands), ordered by `key`: its
-/// bound's bits in an order-preserving form; at equal bounds the higher level first (a block
-/// may hold a pose as good as one already queued), then the pose nearer the window's centre
-/// (among poses scoring alike, the one the prediction favours, whatever the order of the
-/// search).
-#[derive(Debug, Clone, Copy)]
-pub(super) struct Queued {
-    pub(super) key: u64,
-    pub(super) rotation: u32,
-    pub(super) ix: i32,
-    pub(super) iy: i32,
-}
+/// A block waiting to be opened, compact (a frontier holds thousands: 16 bytes each), in one
+/// number whose order is the queue's: above 64 bits the key (its bound's bits in an
+/// order-preserving form; at equal bounds the higher level first, a block may hold a pose as
+/// good as one already queued; then the pose nearer the window's centre: among poses scoring
+/// alike, the one the prediction favours, whatever the order of the search), below them the
+/// rotation and the offsets. The order is total, so every block is taken in one fixed order
+/// whatever else the queue holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(super) struct Queued(u128);
 
-/// Bits of [`Queued::key`] below the bound's and the level's: the nearness to the centre.
+/// Bits of the key below the bound's and the level's: the nearness to the centre.
 pub(super) const NEAR_BITS: u32 = 24;
+
+/// Offsets are kept as `offset + OFFSET_HALF` in 20 bits (a window reaches at most 2¹⁶ cells,
+/// and a block 2⁶ beyond; rotations are at most 8,001, kept in 24 bits).
+const OFFSET_HALF: i64 = 1 << 19;
 
 impl Queued {
     /// `b` queued, for a window of `rotations` rotations.
@@ -84,57 +84,50 @@ impl Queued {
         let turn = b.rotation.abs_diff(rotations / 2) as u64;
         let off = turn + b.ix.unsigned_abs() + b.iy.unsigned_abs();
         let near = (1u64 << NEAR_BITS) - 1 - off.min((1 << NEAR_BITS) - 1);
-        Queued {
-            key: (ordered as u64) << 32 | (b.level as u64) << NEAR_BITS | near,
-            rotation: b.rotation as u32,
-            ix: b.ix as i32,
-            iy: b.iy as i32,
-        }
+        let key = (ordered as u64) << 32 | (b.level as u64) << NEAR_BITS | near;
+        let offset = |v: i64| (v + OFFSET_HALF).clamp(0, 2 * OFFSET_HALF - 1) as u128;
+        Queued(
+            (key as u128) << 64
+                | ((b.rotation as u128) & 0xff_ffff) << 40
+                | offset(b.ix) << 20
+                | offset(b.iy),
+        )
+    }
+
+    /// The bound queued (a sum of raster values).
+    pub(super) fn bound(&self) -> f32 {
+        let bits = (self.0 >> 96) as u32;
+        f32::from_bits(match bits >> 31 {
+            1 => bits & !(1 << 31),
+            _ => !bits,
+        })
     }
 
     pub(super) fn block(&self) -> Block {
-        let bits = (self.key >> 32) as u32;
-        let bits = match bits >> 31 {
-            1 => bits & !(1 << 31),
-            _ => !bits,
-        };
+        let offset = |shift: u32| ((self.0 >> shift) & 0xf_ffff) as i64 - OFFSET_HALF;
         Block {
-            rotation: self.rotation as usize,
-            ix: self.ix as i64,
-            iy: self.iy as i64,
-            level: ((self.key >> NEAR_BITS) & 0xff) as u32,
-            bound: f32::from_bits(bits),
+            rotation: ((self.0 >> 40) & 0xff_ffff) as usize,
+            ix: offset(20),
+            iy: offset(0),
+            level: ((self.0 >> (64 + NEAR_BITS)) & 0xff) as u32,
+            bound: self.bound(),
         }
     }
 }
 
-impl Ord for Queued {
-    fn cmp(&self, other: &Self) -> Ordering {
-        self.key.cmp(&other.key)
-    }
-}
-
-impl PartialOrd for Queued {
-    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
-        Some(self.cmp(other))
-    }
-}
-
-impl PartialEq for Queued {
-    fn eq(&self, other: &Self) -> bool {
-        self.key == other.key
-    }
-}
-
-impl Eq for Queued {}
-
 /// The blocks of a search not opened yet, best bound first; only blocks whose bound reaches
-/// `keep` (a sum of raster values) are queued: no search from this queue asks for less.
-/// `spent` once a search went on depth first from it ([`MAX_QUEUED`]): nothing can go on
-/// from it then.
+/// `keep` (a sum of raster values) are kept: no search from this frontier asks for less.
+/// Blocks under every floor asked so far wait in `deferred`, out of the queue (most blocks
+/// kept for a rival are never taken: a queue of them only made every taking dearer), and join
+/// the queue when a search asks for a lower floor. `spent` once a search went on depth first
+/// from it ([`MAX_QUEUED`]): nothing can go on from it then.
 #[derive(Debug, Clone, Default)]
 pub(super) struct Frontier {
     pub(super) queue: BinaryHeap<Queued>,
+    /// Blocks bounded under `deferred_below`, in no order.
+    deferred: Vec<Queued>,
+    /// Every deferred block's bound lies under it; `None` before any search.
+    deferred_below: Option<f32>,
     pub(super) keep: f32,
     pub(super) spent: bool,
 }
@@ -151,8 +144,47 @@ impl Frontier {
         Frontier {
             queue,
             keep,
-            spent: false,
+            ..Frontier::default()
         }
+    }
+
+    /// How many blocks wait, queued or deferred.
+    pub(super) fn len(&self) -> usize {
+        self.queue.len() + self.deferred.len()
+    }
+
+    /// Moves the deferred blocks reaching `floor` into the queue: a search for `floor` then
+    /// takes every block it could take from the queue.
+    fn admit(&mut self, floor: f32) {
+        if self.deferred_below.is_some_and(|below| below <= floor) {
+            return;
+        }
+        let mut i = 0;
+        while i < self.deferred.len() {
+            if self.deferred[i].bound() >= floor {
+                self.queue.push(self.deferred.swap_remove(i));
+            } else {
+                i += 1;
+            }
+        }
+        self.deferred_below = Some(floor);
+    }
+
+    /// Keeps block `q` (bound `bound`): queued when it reaches the lowest floor asked, else
+    /// deferred.
+    fn add(&mut self, q: Queued, bound: f32) {
+        match self.deferred_below.is_some_and(|below| bound < below) {
+            true => self.deferred.push(q),
+            false => self.queue.push(q),
+        }
+    }
+
+    /// Every block waiting, in ascending order; the frontier is left empty.
+    fn take_sorted(&mut self) -> Vec<Queued> {
+        let mut all = std::mem::take(&mut self.queue).into_vec();
+        all.append(&mut self.deferred);
+        all.sort_unstable();
+        all
     }
 }
 
@@ -222,12 +254,13 @@ impl Search<'_> {
     /// queue; children reaching the queue's `keep` join it. Beyond `max_queued` blocks the
     /// search goes on depth first from the queue, which is then spent.
     pub(super) fn next(&self, frontier: &mut Frontier, floor: f32) -> Option<(f32, Block)> {
+        frontier.admit(floor);
         while let Some(b) = frontier.queue.peek().map(Queued::block) {
             if b.bound < floor {
                 return None;
             }
-            if frontier.queue.len() > self.matcher.max_queued {
-                let queue = std::mem::take(&mut frontier.queue).into_sorted_vec();
+            if frontier.len() > self.matcher.max_queued {
+                let queue = frontier.take_sorted();
                 frontier.spent = true;
                 let mut best = None;
                 for q in queue.iter().rev() {
@@ -246,9 +279,7 @@ impl Search<'_> {
             }
             for child in self.children(&b).into_iter().flatten() {
                 if child.bound >= frontier.keep {
-                    frontier
-                        .queue
-                        .push(Queued::of(&child, self.rotations.len()));
+                    frontier.add(Queued::of(&child, self.rotations.len()), child.bound);
                 }
             }
         }
