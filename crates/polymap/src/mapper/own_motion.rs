@@ -21,9 +21,10 @@ use super::Mapper;
 #[derive(Debug, Clone)]
 pub(super) struct OwnMotion {
     mapper: Box<Mapper>,
-    /// Per scan of the run: its time, seconds (its stamp plus `offset_s`, never before the scan
-    /// before's: logs have stamps that step back; a scan without one is taken
-    /// `STEP_WITHOUT_STAMP_S` later)...
+    /// Per scan of the run: its time, seconds (its stamp plus `offset_s`, always after the scan
+    /// before's: logs have stamps that step back or repeat, and a scan whose stamp does not
+    /// advance, or has none, is taken `STEP_WITHOUT_STAMP_S` later; so at most three windows'
+    /// worth of such scans fall in one scan's reach, however long the stamps stand still)...
     stamps_s: Vec<f64>,
     /// ...whether tracking on the saved map placed it (not lost)...
     placed: Vec<bool>,
@@ -98,7 +99,8 @@ fn time_of(stamp_s: Option<f64>, previous_s: Option<f64>, offset_s: &mut f64) ->
             *offset_s += p + STEP_WITHOUT_STAMP_S - s;
             p + STEP_WITHOUT_STAMP_S
         }
-        (Some(s), Some(p)) => s.max(p),
+        (Some(s), Some(p)) if s <= p => p + STEP_WITHOUT_STAMP_S,
+        (Some(s), Some(_)) => s,
         (Some(s), None) => s,
         (None, Some(p)) => p + STEP_WITHOUT_STAMP_S,
         (None, None) => 0.0,
@@ -117,7 +119,7 @@ pub(crate) struct Sample {
     /// Whether its own tracking lost it: its own motion from the scans before and to those
     /// after is unknown.
     pub own_lost: bool,
-    /// Its time, seconds (never before the scan before's).
+    /// Its time, seconds (always after the scan before's).
     pub stamp_s: f64,
 }
 
@@ -291,10 +293,20 @@ mod tests {
             Some(0.1),
             Some(0.2),
         ];
-        let expected = [100.0, 100.1, 100.1, 100.3, 100.4, 100.5, 100.6, 100.7];
+        let expected = [100.0, 100.1, 100.2, 100.3, 100.4, 100.5, 100.6, 100.7];
         for (t, e) in times(&stamps).iter().zip(expected) {
             assert!((t - e).abs() < 1e-9, "{:?}", times(&stamps));
         }
+    }
+
+    /// Stamps that stand still (a driver that stamps every scan alike) count on one scan step
+    /// each: no scan has the whole run in its window.
+    #[test]
+    fn stamps_that_stand_still_count_on() {
+        let stamps = vec![Some(5.0); 1000];
+        let t = times(&stamps);
+        assert!(t.windows(2).all(|w| w[1] > w[0]), "{:?}", &t[..5]);
+        assert!((t[999] - t[0] - 999.0 * STEP_WITHOUT_STAMP_S).abs() < 1e-6);
     }
 
     /// A scan its own tracking lost keeps a poor fit (or the motion prior's guess) on the own
