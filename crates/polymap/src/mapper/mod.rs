@@ -424,7 +424,6 @@ impl Mapper {
         let t = self.first_scan.saturating_add(i);
         let at = ScanNumber { run: i, map: t };
         let clock = Instant::now();
-        let own_scan = self.own.as_ref().map(|_| scan.clone());
         // Track, then merge, observe and close loops. A run on a saved map searches for its
         // place first (`place_scan`).
         let tracked = match self.placement {
@@ -440,9 +439,6 @@ impl Mapper {
             off_odometry,
         } = tracked;
         let placed = self.placement == Placement::Placed;
-        if let (Some(own), Some(own_scan)) = (self.own.as_mut(), own_scan) {
-            own.push(own_scan, placed && tracking.verdict != Verdict::Lost);
-        }
         let aligned = Instant::now();
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
@@ -518,6 +514,10 @@ impl Mapper {
             after_gap,
             off_odometry,
         };
+        // A localize run's own tracking takes the scan last (outside the stages' times).
+        if let Some(own) = self.own.as_mut() {
+            own.push(scan, placed && tracking.verdict != Verdict::Lost);
+        }
         Update {
             scan_index: i,
             map_from_robot: pose,

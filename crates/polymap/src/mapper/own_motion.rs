@@ -41,8 +41,8 @@ const STEP_WITHOUT_STAMP_S: f64 = 0.1;
 /// A stamp more than this before the time of the scan before is a clock set back (a reset, logs
 /// joined), not the jitter of a log's stamps (Intel's step back by up to 0.9 s), seconds: the
 /// scan is taken `STEP_WITHOUT_STAMP_S` after the one before and the stamps after it count on
-/// from there. Held at the time before instead, every scan until the stamps caught up would be
-/// at one time: all of them within one another's window, at equal weight.
+/// from there. Without it, every scan until the stamps caught up (never, after a reset) would
+/// count `STEP_WITHOUT_STAMP_S` on from the one before, whatever its stamps say.
 const SET_BACK_S: f64 = 2.0;
 
 impl OwnMotion {
@@ -125,8 +125,8 @@ pub(crate) struct Sample {
 
 /// Each scan's pose from the others' places and its own motion: every placed scan `j` within
 /// three `window_s` of scan `i` (neither of them, nor any scan between them, lost by its own
-/// tracking, unless `j` is `i`) puts `i` at `in_map_j ∘ (own_j⁻¹ ∘ own_i)`; the pose is their average weighted by a Gaussian of the time between
-/// (standard deviation `window_s`). Over spans shorter than the window the motion is the
+/// tracking, unless `j` is `i`) puts `i` at `in_map_j ∘ (own_j⁻¹ ∘ own_i)`; the pose is their
+/// average weighted by a Gaussian of the time between (standard deviation `window_s`). Over spans shorter than the window the motion is the
 /// own map's; over longer ones the place follows the saved map. A scan with no placed scan in
 /// reach, and every scan with `window_s` 0, keeps its pose from the saved map.
 pub(crate) fn fuse(samples: &[Sample], window_s: f64) -> Vec<Pose2> {
@@ -135,30 +135,15 @@ pub(crate) fn fuse(samples: &[Sample], window_s: f64) -> Vec<Pose2> {
         return samples.iter().map(|s| s.in_map).collect();
     }
     let reach_s = 3.0 * window_s;
-    // Scans with one unbroken own motion: `i` in `span_start[i]..span_end[i]`.
-    // A scan its own tracking lost is a span of its own: its own pose is a poor fit or a
-    // guess, so its motion to the scans after it is as unknown as from those before.
-    let mut span_start = vec![0; n];
-    let mut start = 0;
-    for (i, s) in samples.iter().enumerate() {
-        if s.own_lost {
-            start = i;
-        }
-        span_start[i] = start;
-        if s.own_lost {
-            start = i + 1;
-        }
-    }
-    let mut span_end = vec![n; n];
-    let mut end = n;
-    for (i, s) in samples.iter().enumerate().rev() {
-        if s.own_lost {
-            end = i + 1;
-        }
-        span_end[i] = end;
-        if s.own_lost {
-            end = i;
-        }
+    // Each scan's span of one unbroken own motion. A scan its own tracking lost is a span of
+    // its own: its own pose is a poor fit or a guess, so its motion to the scans after it is
+    // as unknown as from those before.
+    let mut span = Vec::with_capacity(n);
+    let mut id = 0_usize;
+    for s in samples {
+        id += usize::from(s.own_lost);
+        span.push(id);
+        id += usize::from(s.own_lost);
     }
     (0..n)
         .map(|i| {
@@ -181,13 +166,13 @@ pub(crate) fn fuse(samples: &[Sample], window_s: f64) -> Vec<Pose2> {
                 }
                 true
             };
-            for j in (span_start[i]..=i).rev() {
-                if !add(j) {
+            for j in (0..=i).rev() {
+                if span[j] != span[i] || !add(j) {
                     break;
                 }
             }
-            for j in i + 1..span_end[i] {
-                if !add(j) {
+            for j in i + 1..n {
+                if span[j] != span[i] || !add(j) {
                     break;
                 }
             }
