@@ -242,8 +242,13 @@ impl Tracker {
                 self.summary.count_travel(odometry_m, tracked_m);
             }
             let weak = tracking.verdict == Verdict::Weak;
+            // The step the speed last observed predicts (the fallback along an unobserved
+            // direction): a stretch tracked short is long in it.
+            let expected_m = self.last_pose.map_or(0.0, |last| {
+                last.between(&prior.unobserved_to).translation().length()
+            });
             self.summary
-                .count_weak_step(i, weak, tracked_m.unwrap_or(0.0), odometry_m);
+                .count_weak_step(i, weak, tracked_m.unwrap_or(0.0), odometry_m, expected_m);
             if let (false, Some(tracked_m)) = (lost, tracked_m) {
                 let weakly_observed = weak
                     && matches!(
