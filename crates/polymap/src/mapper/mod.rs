@@ -308,8 +308,9 @@ impl Mapper {
     /// The pose of every scan pushed so far (map frame), with every loop closure's correction
     /// applied: the best estimate, which may differ from the poses [`Mapper::push`] returned.
     /// After [`Mapper::finish`], a localize run's poses take their motion over short spans from
-    /// the run's own map and their place from the saved map (the module `mapper/own_motion.rs`); a scan pushed
-    /// after that turns them back to the poses as tracked until the next `finish`.
+    /// the run's own map and their place from the saved map (the module
+    /// `mapper/own_motion.rs`); a scan pushed after that turns them back to the poses as
+    /// tracked until the next `finish`.
     pub fn trajectory(&self) -> &[Pose2] {
         match &self.fused {
             Some(fused) if fused.len() == self.trajectory.len() => fused,

@@ -66,7 +66,7 @@ pub struct TrackingSummary {
     /// The run of weak scans going on, with its tracked, odometry and expected travel
     /// (metres).
     #[serde(skip)]
-    open_weak: Option<(WeakStretch, [f64; 3])>,
+    open_weak: Option<(WeakStretch, f64, f64, f64)>,
     /// How far the tracked poses went between consecutive scans not lost, metres.
     #[serde(default)]
     pub travel_m: f64,
@@ -224,26 +224,28 @@ impl TrackingSummary {
             return;
         }
         let finite = |m: f64| if m.is_finite() { m } else { 0.0 };
-        let (mut run, mut travel) = self.open_weak.take().unwrap_or((
+        let (mut run, mut tracked, mut odometry, mut expected) = self.open_weak.take().unwrap_or((
             WeakStretch {
                 first: t,
                 last: t,
                 travel_m: 0.0,
             },
-            [0.0; 3],
+            0.0,
+            0.0,
+            0.0,
         ));
-        travel[0] += finite(tracked_m);
-        travel[1] += odometry_m.map_or(0.0, finite);
-        travel[2] += finite(expected_m);
+        tracked += finite(tracked_m);
+        odometry += odometry_m.map_or(0.0, finite);
+        expected += finite(expected_m);
         run.last = t;
-        run.travel_m = travel[0].max(travel[1]).max(travel[2]);
+        run.travel_m = tracked.max(odometry).max(expected);
         if run.travel_m >= WEAK_STRETCH_M {
             match self.weak_stretches.last_mut() {
                 Some(listed) if listed.first == run.first => *listed = run,
                 _ => self.weak_stretches.push(run),
             }
         }
-        self.open_weak = Some((run, travel));
+        self.open_weak = Some((run, tracked, odometry, expected));
     }
 
     /// Takes the tracked step to scan `t` (metres) into the travel; `weakly_observed` when the

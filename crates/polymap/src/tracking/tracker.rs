@@ -243,7 +243,8 @@ impl Tracker {
             }
             let weak = tracking.verdict == Verdict::Weak;
             // The step the speed last observed predicts (the fallback along an unobserved
-            // direction): a stretch tracked short is long in it.
+            // direction; over a gap in the log, for the gap's time, at most `GAP_SCALE_MAX`
+            // steps): a stretch tracked short is long in it.
             let expected_m = self.last_pose.map_or(0.0, |last| {
                 last.between(&prior.unobserved_to).translation().length()
             });
