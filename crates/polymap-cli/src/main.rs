@@ -32,6 +32,7 @@ mod outputs;
 mod quote;
 #[cfg(feature = "ros2")]
 mod ros2_cmd;
+mod saved_map;
 mod sim_cmd;
 mod warnings;
 
