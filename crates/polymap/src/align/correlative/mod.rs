@@ -492,6 +492,68 @@ impl CorrelativeMatcher {
             bound,
         }
     }
+
+    /// The four blocks of `level` at `(ix, iy)`, `(ix + s, iy)`, `(ix, iy + s)` and `(ix + s,
+    /// iy + s)` with `s = 2^level` (the children of a block one level up), when all four lie
+    /// inside the raster (else `None`): each bound is [`CorrelativeMatcher::block`]'s sum in
+    /// its order (bit-identical), the four taken in one pass over the points, which shares
+    /// the index loads and lets four gathers overlap.
+    fn quad(
+        &self,
+        rotations: &Rotations,
+        r: usize,
+        ix: i64,
+        iy: i64,
+        level: u32,
+    ) -> Option<[Block; 4]> {
+        let size = 1i64 << level;
+        let (ox, oy) = (ix + self.pad, iy + self.pad);
+        let (x0, y0, x1, y1) = rotations.extent[r]?;
+        let inside = x0 + ox >= 0
+            && y0 + oy >= 0
+            && x1 + ox + size < self.padded_width
+            && y1 + oy + size < self.padded_height;
+        if !inside {
+            return None;
+        }
+        let values = &self.levels[level as usize];
+        let offset = oy * self.padded_width + ox;
+        let (right, up) = (size as usize, (size * self.padded_width) as usize);
+        let corners = [0, right, up, up + right];
+        let mut lanes = [[0f32; LANES]; 4];
+        let mut chunks = rotations.flat(r).chunks_exact(LANES);
+        for chunk in &mut chunks {
+            // Per child, the chunk's values gathered, then added lane by lane: the
+            // accumulators stay packed in registers.
+            for (lanes, corner) in lanes.iter_mut().zip(corners) {
+                let mut gathered = [0f32; LANES];
+                for (g, &at) in gathered.iter_mut().zip(chunk) {
+                    *g = values[(at as i64 + offset) as usize + corner];
+                }
+                for (lane, g) in lanes.iter_mut().zip(gathered) {
+                    *lane += g;
+                }
+            }
+        }
+        for (lanes, corner) in lanes.iter_mut().zip(corners) {
+            for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
+                *lane += values[(at as i64 + offset) as usize + corner];
+            }
+        }
+        let block = |(dx, dy), lanes: &[f32; LANES]| Block {
+            rotation: r,
+            ix: ix + dx,
+            iy: iy + dy,
+            level,
+            bound: lanes.iter().fold(0f32, |sum, lane| sum + lane),
+        };
+        Some([
+            block((0, 0), &lanes[0]),
+            block((size, 0), &lanes[1]),
+            block((0, size), &lanes[2]),
+            block((size, size), &lanes[3]),
+        ])
+    }
 }
 
 mod search;

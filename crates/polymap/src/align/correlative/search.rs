@@ -170,10 +170,15 @@ impl Frontier {
         self.deferred_below = Some(floor);
     }
 
+    /// Whether a block bounded by `bound` waits deferred: under the lowest floor asked.
+    fn defers(&self, bound: f32) -> bool {
+        self.deferred_below.is_some_and(|below| bound < below)
+    }
+
     /// Keeps block `q` (bound `bound`): queued when it reaches the lowest floor asked, else
     /// deferred.
     fn add(&mut self, q: Queued, bound: f32) {
-        match self.deferred_below.is_some_and(|below| bound < below) {
+        match self.defers(bound) {
             true => self.deferred.push(q),
             false => self.queue.push(q),
         }
@@ -268,19 +273,38 @@ impl Search<'_> {
                 }
                 return best;
             }
-            frontier.queue.pop();
             // A whole block inside an exclusion holds nothing to find (for a single pose, the
             // pose itself).
             if self.excluded(&b) {
+                frontier.queue.pop();
                 continue;
             }
             if b.level == 0 {
+                frontier.queue.pop();
                 return Some((b.bound, b));
             }
+            // The opened block leaves the queue: its first child bound for the queue takes its
+            // place at the top (one sift down instead of a pop and a push; every child ranks
+            // below its parent). The queue holds the same blocks either way, and its order is
+            // total, so they are taken in the same order.
+            let mut opened = false;
             for child in self.children(&b).into_iter().flatten() {
-                if child.bound >= frontier.keep {
-                    frontier.add(Queued::of(&child, self.rotations.len()), child.bound);
+                if child.bound < frontier.keep {
+                    continue;
                 }
+                let q = Queued::of(&child, self.rotations.len());
+                match opened || frontier.defers(child.bound) {
+                    true => frontier.add(q, child.bound),
+                    false => {
+                        if let Some(mut top) = frontier.queue.peek_mut() {
+                            *top = q;
+                        }
+                        opened = true;
+                    }
+                }
+            }
+            if !opened {
+                frontier.queue.pop();
             }
         }
         None
@@ -289,6 +313,14 @@ impl Search<'_> {
     /// The four blocks of the level below `b` (level > 0) that lie in the window.
     pub(super) fn children(&self, b: &Block) -> [Option<Block>; 4] {
         let size = 1i64 << (b.level - 1);
+        if b.ix + size <= self.reach && b.iy + size <= self.reach {
+            let quad = self
+                .matcher
+                .quad(self.rotations, b.rotation, b.ix, b.iy, b.level - 1);
+            if let Some(quad) = quad {
+                return quad.map(Some);
+            }
+        }
         [(0, 0), (size, 0), (0, size), (size, size)].map(|(dx, dy)| {
             let (ix, iy) = (b.ix + dx, b.iy + dy);
             (ix <= self.reach && iy <= self.reach).then(|| {

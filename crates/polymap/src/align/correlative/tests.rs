@@ -271,3 +271,44 @@ fn peaks_are_apart_and_a_high_floor_finds_nothing() {
     assert!(matcher.best(&points, &window, 1.01, &[]).is_none());
     assert!(matcher.best(&[], &window, 0.0, &[]).is_none());
 }
+
+/// Four neighbouring blocks summed in one pass carry the bit-identical bounds of four
+/// separate sums, at every level and rotation; blocks reaching past the raster are left to
+/// the sums with checks.
+#[test]
+fn four_blocks_in_one_pass_are_the_four_sums() {
+    let (segs, pillar) = room();
+    let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
+    let points = scan_of(&segs, &pillar, Pose2::new(0.3, -0.2, 0.2));
+    let window = SearchWindow {
+        center: Pose2::new(0.1, 0.1, 0.1),
+        half_xy_m: 1.0,
+        half_theta_rad: 0.3,
+    };
+    let rotations = matcher.rotations(&points, &window);
+    let (mut summed, mut outside) = (0, 0);
+    for r in 0..rotations.len() {
+        for level in 0..=MAX_LEVEL {
+            for (ix, iy) in [(-10, -10), (-3, 4), (0, 0), (200, 0), (-300, -300)] {
+                let Some(quad) = matcher.quad(&rotations, r, ix, iy, level) else {
+                    outside += 1;
+                    continue;
+                };
+                let size = 1i64 << level;
+                for (b, (dx, dy)) in quad
+                    .iter()
+                    .zip([(0, 0), (size, 0), (0, size), (size, size)])
+                {
+                    let one = matcher.block(&rotations, r, ix + dx, iy + dy, level);
+                    assert_eq!(
+                        (b.ix, b.iy, b.level, b.rotation),
+                        (one.ix, one.iy, level, r)
+                    );
+                    assert_eq!(b.bound.to_bits(), one.bound.to_bits());
+                }
+                summed += 1;
+            }
+        }
+    }
+    assert!(summed > 0 && outside > 0, "{summed} {outside}");
+}
