@@ -50,6 +50,96 @@ pub fn thin_points(points: &[Vec2], spacing_m: f64) -> Vec<Vec2> {
 pub struct PointTargets {
     tree: rstar::RTree<rstar::primitives::GeomWithData<[f64; 2], usize>>,
     shapes: Vec<std::cell::OnceCell<Option<Shape>>>,
+    bins: Bins,
+}
+
+/// Points binned into square cells of [`Bins::CELL_M`] over their bounding box: whether any
+/// lies within a gate of a query point is a look at the nine cells around it. Most scan points
+/// offered to the targets lie far from every one, and a nearest-neighbour search in the tree
+/// finds that out at many times the cost.
+#[derive(Debug, Clone, Default)]
+struct Bins {
+    origin: Vec2,
+    width: i64,
+    height: i64,
+    /// Cell `i`'s points are `points[starts[i]..starts[i + 1]]`; empty when there are too
+    /// many cells (then every query is answered "maybe").
+    starts: Vec<u32>,
+    points: Vec<Vec2>,
+}
+
+impl Bins {
+    /// The cell side, metres: above [`LOOSE_GATE_M`] by a margin far beyond any rounding, so
+    /// that every point within the gate of a query lies in the nine cells around its cell.
+    const CELL_M: f64 = LOOSE_GATE_M + 0.1;
+
+    /// At most this many cells (4 MiB of starts); beyond, no bins.
+    const MAX_CELLS: i64 = 1 << 20;
+
+    /// `points` (finite) binned.
+    fn new(points: &[Vec2]) -> Self {
+        let Some(origin) = points.iter().copied().reduce(Vec2::min) else {
+            return Bins::default();
+        };
+        let far = points.iter().copied().fold(origin, Vec2::max);
+        let span = |v: f64| (v / Self::CELL_M).floor() as i64 + 1;
+        let (width, height) = (span(far.x - origin.x), span(far.y - origin.y));
+        if width.saturating_mul(height) > Self::MAX_CELLS {
+            return Bins::default();
+        }
+        let mut bins = Bins {
+            origin,
+            width,
+            height,
+            starts: vec![0; (width * height) as usize + 1],
+            points: vec![Vec2::ZERO; points.len()],
+        };
+        let index = |b: &Bins, p: Vec2| {
+            let (x, y) = b.cell(p);
+            (y * b.width + x) as usize
+        };
+        for &p in points {
+            let i = index(&bins, p);
+            bins.starts[i + 1] += 1;
+        }
+        for i in 1..bins.starts.len() {
+            bins.starts[i] += bins.starts[i - 1];
+        }
+        let mut next = bins.starts.clone();
+        for &p in points {
+            let i = index(&bins, p);
+            bins.points[next[i] as usize] = p;
+            next[i] += 1;
+        }
+        bins
+    }
+
+    /// The cell of `p`, which may lie outside the bins.
+    fn cell(&self, p: Vec2) -> (i64, i64) {
+        let c = (p - self.origin) / Self::CELL_M;
+        (c.x.floor() as i64, c.y.floor() as i64)
+    }
+
+    /// Whether a point may lie within `max_m` of `q`: `false` only when none does (the
+    /// caller's `distance_squared` comparison, negated: with finite points and gate no
+    /// comparison meets a NaN).
+    fn maybe_within(&self, q: Vec2, max_m: f64) -> bool {
+        let gated = max_m <= LOOSE_GATE_M && max_m.is_finite();
+        if self.starts.is_empty() || !gated || !q.is_finite() {
+            return true;
+        }
+        let (cx, cy) = self.cell(q);
+        for y in (cy - 1).max(0)..=(cy + 1).min(self.height - 1) {
+            for x in (cx - 1).max(0)..=(cx + 1).min(self.width - 1) {
+                let i = (y * self.width + x) as usize;
+                let cell = &self.points[self.starts[i] as usize..self.starts[i + 1] as usize];
+                if cell.iter().any(|p| p.distance_squared(q) <= max_m * max_m) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
 }
 
 /// How a target point constrains a scan point matched to it.
@@ -104,9 +194,14 @@ impl PointTargets {
             }
         }
         let shapes = vec![std::cell::OnceCell::new(); distinct.len()];
+        let kept: Vec<Vec2> = distinct
+            .iter()
+            .map(|d| Vec2::new(d.geom()[0], d.geom()[1]))
+            .collect();
         PointTargets {
             tree: rstar::RTree::bulk_load(distinct),
             shapes,
+            bins: Bins::new(&kept),
         }
     }
 
@@ -123,6 +218,10 @@ impl PointTargets {
     /// The constraints for scan point `p_in_robot`, at `q` in the map frame, from the nearest
     /// target within `max_m`: none, one (point to line) or two (point to point).
     fn constrain(&self, p_in_robot: Vec2, q: Vec2, max_m: f64, out: &mut Vec<Constraint>) {
+        // No point within the gate: the nearest, wherever it is, lies beyond it.
+        if !self.bins.maybe_within(q, max_m) {
+            return;
+        }
         let Some(t) = self.tree.nearest_neighbor([q.x, q.y]) else {
             return;
         };
@@ -284,6 +383,46 @@ fn align_points_matched(
 mod tests {
     use super::*;
     use crate::segment_index::SegmentIndex;
+
+    /// The bins say "none within the gate" exactly when the nearest point (by brute force)
+    /// lies beyond it, for queries on, near and far from the points and at cell borders.
+    #[test]
+    fn bins_tell_no_point_within_the_gate_exactly_when_none_is() {
+        let points: Vec<Vec2> = (0..40)
+            .map(|i| {
+                let a = f64::from(i) * 0.7;
+                Vec2::new(3.0 * a.cos() + 0.1 * a, 2.0 * a.sin() - 0.05 * a)
+            })
+            .chain([Vec2::new(0.4, 0.4), Vec2::new(0.8, 0.4)])
+            .collect();
+        let bins = Bins::new(&points);
+        assert!(!bins.starts.is_empty());
+        let (mut far, mut near) = (0, 0);
+        for i in -60..=60 {
+            for j in -60..=60 {
+                let q = Vec2::new(
+                    f64::from(i) * 0.1,
+                    f64::from(j) * 0.1 + 0.004 * f64::from(i),
+                );
+                for max_m in [0.0, 0.05, 0.2, LOOSE_GATE_M] {
+                    let within = points
+                        .iter()
+                        .any(|p| p.distance_squared(q) <= max_m * max_m);
+                    assert_eq!(bins.maybe_within(q, max_m), within, "{q:?} {max_m}");
+                    match within {
+                        true => near += 1,
+                        false => far += 1,
+                    }
+                }
+            }
+        }
+        assert!(near > 100 && far > 100, "{near} {far}");
+        // Beyond the gate, or with no bins, the answer is always "maybe".
+        assert!(bins.maybe_within(Vec2::new(100.0, 100.0), 1.0));
+        assert!(Bins::new(&[]).maybe_within(Vec2::ZERO, 0.1));
+        let wide = Bins::new(&[Vec2::ZERO, Vec2::new(1e6, 1e6)]);
+        assert!(wide.maybe_within(Vec2::new(5e5, 5e5), 0.1));
+    }
 
     /// A corridor whose only mark along it is a box's face against its north wall (x = 0,
     /// reaching a little past the wall, as a merged face does), a robot beside that face, and
