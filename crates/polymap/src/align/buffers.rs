@@ -4,14 +4,15 @@
 //! and drops them again. Fresh zeroed memory of that size comes from the system page by page:
 //! on FR079 at every 3rd scan, page faults and zeroing were about 12 % of the run (`perf`).
 //! Buffers dropped by [`ScoreRaster`](super::ScoreRaster) and the correlative matcher go back
-//! to a small per-thread free list instead and are zeroed again when taken; the values are
-//! the same, so outputs are byte-identical.
+//! to a small per-thread free list instead and are zeroed again when taken (or, for a caller
+//! that writes every value it reads, taken as they are); the values read are the same, so
+//! outputs are byte-identical.
 
 use std::cell::RefCell;
 
 /// At most this many buffers are kept per thread (the mapping thread and the loop thread each
 /// have their own list)...
-const MAX_KEPT: usize = 12;
+pub(crate) const MAX_KEPT: usize = 12;
 /// ...holding at most this many `f32` values together (64 MiB).
 const MAX_KEPT_VALUES: usize = 16 << 20;
 
@@ -21,6 +22,14 @@ thread_local! {
 
 /// A buffer of `len` zeros, reusing a kept one when there is one.
 pub(crate) fn zeroed(len: usize) -> Vec<f32> {
+    let mut v = reused(len);
+    v.fill(0.0);
+    v
+}
+
+/// A buffer of `len` values of no particular value (those of a kept buffer, zeros beyond),
+/// for a caller that writes every value it reads.
+pub(crate) fn reused(len: usize) -> Vec<f32> {
     let kept = FREE.with(|free| {
         let mut free = free.borrow_mut();
         // The smallest kept buffer that holds `len`, else the largest (it grows once).
@@ -32,7 +41,7 @@ pub(crate) fn zeroed(len: usize) -> Vec<f32> {
     });
     match kept {
         Some(mut v) => {
-            v.clear();
+            v.truncate(len);
             v.resize(len, 0.0);
             v
         }
@@ -73,5 +82,21 @@ mod tests {
         let big = zeroed(5000);
         assert_eq!(big.len(), 5000);
         assert!(big.iter().all(|&x| x == 0.0));
+    }
+
+    #[test]
+    fn a_reused_buffer_keeps_its_values_and_is_of_the_asked_length() {
+        let mut v = zeroed(100);
+        v.iter_mut().for_each(|x| *x = 7.0);
+        let at = v.as_ptr();
+        recycle(v);
+        let w = reused(150);
+        assert_eq!(w.as_ptr(), at, "the kept buffer is reused");
+        assert_eq!(w.len(), 150);
+        assert!(w[..100].iter().all(|&x| x == 7.0));
+        assert!(w[100..].iter().all(|&x| x == 0.0));
+        recycle(w);
+        let z = zeroed(120);
+        assert!(z.iter().all(|&x| x == 0.0));
     }
 }

@@ -71,7 +71,11 @@ pub struct Exclusion {
 pub struct CorrelativeMatcher {
     raster: ScoreRaster,
     /// Level `h` holds, at padded cell `(x + pad, y + pad)`, the raster's maximum over the
-    /// block `[x, x + 2^h) × [y, y + 2^h)`; `pad = 2^top − 1` cells on the low sides.
+    /// block `[x, x + 2^h) × [y, y + 2^h)`; `pad = 2^top − 1` cells on the low sides. Each
+    /// level's length is a power of two, at least its `padded_width × padded_height` cells
+    /// (values past them are never read): a cell's index masked by the length less one is
+    /// the same index, and the compiler drops the bounds check of a masked index
+    /// (`masked`).
     levels: Vec<Vec<f32>>,
     pad: i64,
     padded_width: i64,
@@ -122,7 +126,11 @@ impl CorrelativeMatcher {
         let pad = (1i64 << max_level) - 1;
         let (pw, ph) = (w as i64 + pad, h as i64 + pad);
         let (wu, len) = (pw as usize, (pw * ph) as usize);
-        let mut base = super::buffers::zeroed(len);
+        let cap = len.next_power_of_two();
+        // Values past `len` are never read: only the cells are zeroed (and every level above
+        // the first is written whole before it is read).
+        let mut base = super::buffers::reused(cap);
+        base[..len].fill(0.0);
         for (y, row) in raster.values().chunks(w.max(1)).enumerate() {
             let at = (y as i64 + pad) * pw + pad;
             base[at as usize..at as usize + row.len()].copy_from_slice(row);
@@ -131,10 +139,11 @@ impl CorrelativeMatcher {
         levels.push(base);
         for level in 1..=max_level {
             let half = 1usize << (level - 1);
-            let prev = &levels[level as usize - 1];
+            let prev = &levels[level as usize - 1][..len];
             // Along x, then along y, each a max of two blocks of the level below (plain
             // loops over slices: the iterator chain it replaces cost three times as much).
-            let mut both = super::buffers::zeroed(len);
+            let mut padded = super::buffers::reused(cap);
+            let both = &mut padded[..len];
             for (out, row) in both.chunks_exact_mut(wu).zip(prev.chunks_exact(wu)) {
                 let split = wu.saturating_sub(half);
                 for ((o, a), b) in out[..split].iter_mut().zip(&row[..split]).zip(&row[half..]) {
@@ -153,7 +162,7 @@ impl CorrelativeMatcher {
                 }
                 start += step;
             }
-            levels.push(both);
+            levels.push(padded);
         }
         CorrelativeMatcher {
             raster,
@@ -452,6 +461,7 @@ impl CorrelativeMatcher {
     /// The block at `(ix, iy)` of `level` for rotation `r`, with its bound.
     fn block(&self, rotations: &Rotations, r: usize, ix: i64, iy: i64, level: u32) -> Block {
         let values = &self.levels[level as usize];
+        let mask = masked(values);
         let (ox, oy) = (ix + self.pad, iy + self.pad);
         let inside = rotations.extent[r].is_some_and(|(x0, y0, x1, y1)| {
             x0 + ox >= 0
@@ -469,11 +479,11 @@ impl CorrelativeMatcher {
             let mut chunks = rotations.flat(r).chunks_exact(LANES);
             for chunk in &mut chunks {
                 for (lane, &at) in lanes.iter_mut().zip(chunk) {
-                    *lane += values[(at as i64 + offset) as usize];
+                    *lane += values[(at as i64 + offset) as usize & mask];
                 }
             }
             for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
-                *lane += values[(at as i64 + offset) as usize];
+                *lane += values[(at as i64 + offset) as usize & mask];
             }
         } else {
             for (i, &(cx, cy)) in rotations.cells(r).iter().enumerate() {
@@ -517,6 +527,7 @@ impl CorrelativeMatcher {
             return None;
         }
         let values = &self.levels[level as usize];
+        let mask = masked(values);
         let offset = oy * self.padded_width + ox;
         let (right, up) = (size as usize, (size * self.padded_width) as usize);
         let corners = [0, right, up, up + right];
@@ -528,7 +539,7 @@ impl CorrelativeMatcher {
             for (lanes, corner) in lanes.iter_mut().zip(corners) {
                 let mut gathered = [0f32; LANES];
                 for (g, &at) in gathered.iter_mut().zip(chunk) {
-                    *g = values[(at as i64 + offset) as usize + corner];
+                    *g = values[((at as i64 + offset) as usize + corner) & mask];
                 }
                 for (lane, g) in lanes.iter_mut().zip(gathered) {
                     *lane += g;
@@ -537,7 +548,7 @@ impl CorrelativeMatcher {
         }
         for (lanes, corner) in lanes.iter_mut().zip(corners) {
             for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
-                *lane += values[(at as i64 + offset) as usize + corner];
+                *lane += values[((at as i64 + offset) as usize + corner) & mask];
             }
         }
         let block = |(dx, dy), lanes: &[f32; LANES]| Block {
@@ -554,6 +565,11 @@ impl CorrelativeMatcher {
             block((size, size), &lanes[3]),
         ])
     }
+}
+
+/// The mask of a level's indices: its length (a power of two) less one.
+fn masked(values: &[f32]) -> usize {
+    values.len().wrapping_sub(1)
 }
 
 mod search;

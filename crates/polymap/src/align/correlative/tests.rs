@@ -312,3 +312,32 @@ fn four_blocks_in_one_pass_are_the_four_sums() {
     }
     assert!(summed > 0 && outside > 0, "{summed} {outside}");
 }
+
+/// Every level is as long as a power of two, at least its padded cells: a cell's index
+/// masked by the length less one is the index itself. A matcher built on reused buffers
+/// holding other values has the same cells.
+#[test]
+fn levels_are_a_power_of_two_long_with_zeros_past_the_cells() {
+    let (segs, pillar) = room();
+    for (cell, half_xy) in [(0.1, 0.3), (0.1, 2.0), (0.07, 1.0), (0.5, 0.0)] {
+        let matcher =
+            CorrelativeMatcher::for_window(ScoreRaster::of(&segs, &pillar, cell, 0.2), half_xy);
+        let cells = (matcher.padded_width * matcher.padded_height) as usize;
+        for values in &matcher.levels {
+            assert!(values.len().is_power_of_two() && values.len() >= cells);
+            assert!((0..cells).all(|i| i & masked(values) == i));
+        }
+        let kept: Vec<Vec<f32>> = matcher.levels.iter().map(|l| l[..cells].to_vec()).collect();
+        drop(matcher);
+        // Every kept buffer taken, filled with another value and given back.
+        use super::super::buffers::{MAX_KEPT, recycle, reused};
+        let mut taken: Vec<Vec<f32>> = (0..MAX_KEPT).map(|_| reused(1 << 16)).collect();
+        taken.iter_mut().for_each(|b| b.fill(9.0));
+        taken.into_iter().for_each(recycle);
+        let again =
+            CorrelativeMatcher::for_window(ScoreRaster::of(&segs, &pillar, cell, 0.2), half_xy);
+        for (kept, level) in kept.iter().zip(&again.levels) {
+            assert_eq!(&level[..cells], &kept[..]);
+        }
+    }
+}
