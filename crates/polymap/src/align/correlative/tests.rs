@@ -317,7 +317,7 @@ fn four_blocks_in_one_pass_are_the_four_sums() {
 /// masked by the length less one is the index itself. A matcher built on reused buffers
 /// holding other values has the same cells.
 #[test]
-fn levels_are_a_power_of_two_long_with_zeros_past_the_cells() {
+fn levels_are_a_power_of_two_long_and_reused_buffers_give_the_same_cells() {
     let (segs, pillar) = room();
     for (cell, half_xy) in [(0.1, 0.3), (0.1, 2.0), (0.07, 1.0), (0.5, 0.0)] {
         let matcher =
