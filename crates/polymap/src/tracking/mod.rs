@@ -2,7 +2,7 @@
 //! last poses and the speed last observed, which give the motion prior's guess and anchor; the
 //! last `ok` scan; the recent motion; the loose points; the lost streak; the run's
 //! [`TrackingSummary`]) and gives each scan its pose and verdict ([`Tracker::track`]) through
-//! the per-scan strategy ([`track_scan`]): ICP from the starts, the recovery after a gap, the
+//! the per-scan strategy ([`track_scan`]): ICP from the starts, the whole-circle recovery, the
 //! window search, the rules along weakly observed axes, corner hypotheses and the search's
 //! rival, and the [`verdict`]. Scan matching itself (ICP, the likelihood raster, the
 //! correlative matcher, corner poses) is [`crate::align`]; the mapper ([`crate::mapper`])

@@ -18,7 +18,7 @@ pub enum MotionPrior {
 }
 
 /// Where ICP starts for each scan (section `[mapper]`): the motion prior, the extra starts and
-/// how one is chosen, the recovery after a gap, and a localize run's own tracking. Every key
+/// how one is chosen, the whole-circle recovery, and a localize run's own tracking. Every key
 /// but `icp_from_best_start_only` and `localize_own_motion_s` is one the paper preset sets
 /// otherwise, so that its printed configuration reads back as it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -46,7 +46,9 @@ pub struct MapperParams {
     /// fits nowhere near the guess: the robot turned during a gap in the log), poses over the
     /// whole circle and within 1 m of the anchor are scored, ICP runs from the best three, and
     /// the best result is kept if it has at least twice the inliers and twice this share (0
-    /// turns this off). Not with the odometry prior, whose guess carries the turn.
+    /// turns this off); turned from the guess beyond the window search's rotation window, it
+    /// must also beat the window search's pose by 1.5 times the inliers. Not with the odometry
+    /// prior, whose guess carries the turn.
     pub recover_below_inlier_share: f64,
     /// In a localize run, the span over which the trajectory takes its motion from the run's
     /// own tracking on a fresh map of its scans rather than from the saved map (the standard

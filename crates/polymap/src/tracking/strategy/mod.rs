@@ -1,5 +1,5 @@
 //! The alignment strategy of tracking: where ICP starts, which result wins, when the window
-//! search runs and when its pose wins, the recovery after a gap, and the verdict.
+//! search runs and when its pose wins, the whole-circle recovery, and the verdict.
 //!
 //! The [`Tracker`](super::Tracker) gathers its state into a [`TrackInput`] (the scan, the map, the motion prior's
 //! guess and anchor, the recent motion, how many scans in a row were lost) and asks
@@ -22,10 +22,14 @@
 //!    odometry prior, also from the odometry's motion since the last `ok` scan reversed
 //!    (`tracking.reversed_odometry`: odometry that reads the distance but not the direction),
 //!    a pose that must win clearly ([`Attempt::wins_clearly`]).
-//! 2. **Recovery** after a gap: when under `mapper.recover_below_inlier_share` of the points
-//!    are inliers (not with the odometry prior), a window search over the whole circle within
+//! 2. **Recovery**: when under `mapper.recover_below_inlier_share` of the points are inliers
+//!    (not with the odometry prior), a window search over the whole circle within
 //!    [`RECOVER_TRANSLATION_M`] of the anchor, ICP from its best pose and rival; kept only when
-//!    it fits well and doubles the inliers.
+//!    it fits well and doubles the inliers, and only when turned from the guess no farther
+//!    than the window search's rotation window; a pose turned farther is held until the window
+//!    search has run and replaces its pose only where both are the same or it fits
+//!    `CORNER_WIN_RATIO` times the points (plus two): the whole circle holds a building's
+//!    twins ([`Attempt::settle`]).
 //! 3. **Window search** when ICP's basin may not reach ([`should_search`]): the window of
 //!    [`search_window`] (where ICP fits poorly, as wide as the recent motion; with the
 //!    odometry prior towards the constant-velocity guess where odometry disagrees with it: its
@@ -197,7 +201,7 @@ fn best_of(results: impl IntoIterator<Item = AlignResult>) -> Option<AlignResult
         .reduce(|best, r| if better(&r, &best) { r } else { best })
 }
 
-/// The pose of one scan and the verdict on it: ICP from the starts, the recovery after a gap,
+/// The pose of one scan and the verdict on it: ICP from the starts, the whole-circle recovery,
 /// the window search (see the module); the result is `None` when there is nothing to align
 /// to (an empty map, a scan without points).
 pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResult>, Tracking) {

@@ -14,8 +14,15 @@ impl Attempt<'_> {
     /// ICP from the starts, the recovery, the window search (see [`Attempt::icp`]).
     pub(super) fn icp_and_search(&self) -> Aligned {
         let input = self.input;
-        let Some(result) = self.icp_from_starts() else {
+        let Some(from_starts) = self.icp_from_starts() else {
             return Aligned::icp(None);
+        };
+        // A recovered pose turned as far as the motion may have turned replaces ICP's from the
+        // starts; one turned farther is held until the window search has run, and must beat
+        // its pose (`settle`).
+        let (result, held) = match self.recovered(&from_starts) {
+            Some(r) if self.within_turn_window(&r, &from_starts) => (r, None),
+            held => (from_starts, held),
         };
         let tracking = self.config.tracking;
         let (guess, anchor, lost_streak) = (input.guess, input.anchor, input.lost_streak);
@@ -31,11 +38,11 @@ impl Attempt<'_> {
                 tracking,
             )
         {
-            return Aligned::icp(Some(result));
+            return self.settle(held, Aligned::icp(Some(result)));
         }
         let every = RELOCALIZE_EVERY_LOST;
         let global = every > 0 && lost_streak > 0 && lost_streak.is_multiple_of(every);
-        match global
+        let aligned = match global
             .then(|| whole_map_window(input.map, &guess))
             .flatten()
         {
@@ -45,7 +52,71 @@ impl Attempt<'_> {
                 let aligned = self.search_in(&window, result, unobserved);
                 self.turned_on_the_spot(aligned, &window)
             }
+        };
+        self.settle(held, aligned)
+    }
+
+    /// A `held` recovered pose against the pose `aligned` kept. Where both found the same pose
+    /// (not apart by `tracking.verdict.rival_apart_m` or `rival_apart_deg`), the recovered one
+    /// stands, the window search confirming it; where it fits `CORNER_WIN_RATIO` times the
+    /// points (plus two), it stands as ICP's from the starts would, the window's outcome (its
+    /// rival) being about a pose it beat.
+    fn settle(&self, held: Option<AlignResult>, aligned: Aligned) -> Aligned {
+        let tracking = self.config.tracking;
+        match (held, aligned.result) {
+            (Some(held), Some(kept))
+                if !tracking.apart(&kept.map_from_robot, &held.map_from_robot) =>
+            {
+                Aligned {
+                    result: Some(held),
+                    search_won: false,
+                    second_fit: false,
+                    ..aligned
+                }
+            }
+            (Some(held), Some(kept))
+                if held.inliers as f64 > kept.inliers as f64 * CORNER_WIN_RATIO + 2.0 =>
+            {
+                Aligned::icp(Some(held))
+            }
+            _ => aligned,
         }
+    }
+
+    /// The recovery (`mapper.recover_below_inlier_share`; not with the odometry prior: the
+    /// guess already carries the turn, and a poor fit after a gap means stale odometry, which
+    /// the next increment makes good): where ICP from the starts fits under that share of the
+    /// points, ICP from a window search over the whole circle within [`RECOVER_TRANSLATION_M`]
+    /// of the anchor ([`Attempt::recover`]), when it fits well (twice that share) and doubles
+    /// the inliers; a turned scan that is merely less bad is likelier a coincidence of the
+    /// search.
+    pub(super) fn recovered(&self, from_starts: &AlignResult) -> Option<AlignResult> {
+        let policy = self.config.starts;
+        let share = policy.recover_below_inlier_share;
+        let n = self.points.len() as f64;
+        if (from_starts.inliers as f64) >= share * n || policy.motion_prior == MotionPrior::Odometry
+        {
+            return None;
+        }
+        self.recover()
+            .filter(|r| r.inliers as f64 >= 2.0 * share * n && r.inliers >= 2 * from_starts.inliers)
+    }
+
+    /// Whether `recovered` is turned from the motion prior's guess by no more than the window
+    /// search's rotation window ([`Attempt::window`] for ICP's result `from_starts`): as far
+    /// as the motion may have turned. The whole circle around the anchor also holds a
+    /// building's twins, which may fit better than the true pose where the scan after a sharp
+    /// turn sees much that is not yet mapped: in the simulated 45° hallway at one scan per
+    /// metre, a 45° turn fitted 7 % of the points from the starts, the whole circle's best
+    /// pose, turned 135° from the guess, 86 %, and the true turn, in the window, 64 %. A
+    /// recovered pose turned farther must beat the window search's by `CORNER_WIN_RATIO`, as
+    /// a corner pose must. Its translation does not decide: at every 10th FR079 scan the true
+    /// pose lies over a metre from the constant-velocity guess (a robot that stops or backs),
+    /// where the recovery, fitting 27–39 % more points than the window search's pose, finds it.
+    fn within_turn_window(&self, recovered: &AlignResult, from_starts: &AlignResult) -> bool {
+        let window = self.window(from_starts);
+        let turn = window.center.between(&recovered.map_from_robot).theta_rad;
+        turn.abs() <= window.half_theta_rad
     }
 
     /// Whether ICP's `result` fits under `tracking.search.search_below_inlier_share` of the points.

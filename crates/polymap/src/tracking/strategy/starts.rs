@@ -1,7 +1,7 @@
 //! Where ICP starts for one scan and what it fits from there: the motion prior's guess, the
 //! anchor, the constant-velocity guess where odometry disagrees with it, the last `ok` pose
 //! after a lost scan, the best coarse rotation; the best start by soft inlier score or ICP
-//! from each; odometry's motion reversed; the recovery after a gap; ICP again without the
+//! from each; odometry's motion reversed; the whole-circle recovery; ICP again without the
 //! points by a face's end that alone pin a direction.
 
 use super::{
@@ -81,8 +81,7 @@ pub(super) fn segments_near(
 }
 
 impl Attempt<'_> {
-    /// ICP from the motion prior's starts (and the recovery after a gap); `None` when there is
-    /// nothing to align to.
+    /// ICP from the motion prior's starts; `None` when there is nothing to align to.
     pub(super) fn icp_from_starts(&self) -> Option<AlignResult> {
         let (input, params, policy) = (self.input, self.config.align, self.config.starts);
         if input.map.is_empty() || input.points_in_robot.is_empty() {
@@ -145,27 +144,7 @@ impl Attempt<'_> {
                 result = reversed;
             }
         }
-        // With odometry the guess already carries the turn; a poor fit after a gap then
-        // means stale odometry, which the next increment makes good (a recovery would turn
-        // the pose and the increment would turn it again).
-        let share = policy.recover_below_inlier_share;
-        let n = self.points.len();
-        if (result.inliers as f64) >= share * n as f64
-            || policy.motion_prior == MotionPrior::Odometry
-        {
-            return Some(result);
-        }
-        let Some(recovered) = self.recover(&near) else {
-            return Some(result);
-        };
-        // Kept only when it fits well where the guess fitted badly: a turned scan that is
-        // merely less bad is likelier a coincidence of the search.
-        let fits_well = recovered.inliers as f64 >= 2.0 * share * n as f64;
-        Some(if fits_well && recovered.inliers >= 2 * result.inliers {
-            recovered
-        } else {
-            result
-        })
+        Some(result)
     }
 
     /// Where ICP may start, before [`MapperParams::icp_from_best_start_only`] picks one: the
@@ -206,7 +185,7 @@ impl Attempt<'_> {
     /// ICP from the best pose (and its rival, if any) of a window search over the whole circle
     /// within [`RECOVER_TRANSLATION_M`] of the anchor; the result with the most inliers.
     /// `None` when there is no map near.
-    pub(super) fn recover(&self, near: &[Segment]) -> Option<AlignResult> {
+    pub(super) fn recover(&self) -> Option<AlignResult> {
         let window = SearchWindow {
             center: self.input.anchor,
             half_xy_m: RECOVER_TRANSLATION_M,
@@ -225,7 +204,7 @@ impl Attempt<'_> {
         best_of(
             std::iter::once(found.best)
                 .chain(found.rival()) // a second start
-                .map(|c| self.run(near, c.map_from_robot)),
+                .map(|c| self.run_near(c.map_from_robot)),
         )
     }
 
