@@ -147,9 +147,31 @@ pub fn warn_tracking(t: &TrackingSummary, scans: usize, witness_m: f64) {
         eprintln!(
             "polymap: warning: tracking was weak on {doubtful} of {scans} scans (a direction came \
              from the motion prior, the fit was poor or ambiguous, or the step fell short of the \
-             robot's speed or off the log's odometry): check the map"
+             robot's speed or off the log's odometry; the longest runs of them: scans {}): check \
+             the map there (summary.json: tracking.doubtful_ranges)",
+            longest_ranges(&t.doubtful_ranges, 10)
         );
     }
+}
+
+/// The `n` longest of `ranges` (inclusive scan ranges), in scan order, as `a-b` or `a`;
+/// `...` at the end when some were left out.
+fn longest_ranges(ranges: &[[u32; 2]], n: usize) -> String {
+    let mut longest: Vec<&[u32; 2]> = ranges.iter().collect();
+    longest.sort_by_key(|r| std::cmp::Reverse(r[1] - r[0]));
+    longest.truncate(n);
+    longest.sort();
+    let mut listed: Vec<String> = longest
+        .iter()
+        .map(|[a, b]| match a == b {
+            true => format!("{a}"),
+            false => format!("{a}-{b}"),
+        })
+        .collect();
+    if ranges.len() > n {
+        listed.push("...".into());
+    }
+    listed.join(", ")
 }
 
 /// Says when the log's odometry travelled under half or over twice what the scans tracked `ok`
@@ -185,5 +207,18 @@ pub fn warn_consistency(consistency: Option<&MapConsistency>) {
             100.0 * c.seen_through_share,
             100.0 * c.warn_above
         );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_longest_ranges_are_named_in_scan_order() {
+        let ranges = [[1, 1], [4, 9], [12, 12], [20, 23], [30, 30]];
+        assert_eq!(longest_ranges(&ranges, 2), "4-9, 20-23, ...");
+        assert_eq!(longest_ranges(&ranges, 5), "1, 4-9, 12, 20-23, 30");
+        assert_eq!(longest_ranges(&[], 3), "");
     }
 }

@@ -19,6 +19,11 @@ pub struct TrackingSummary {
     /// run's warning does not count them.
     #[serde(default)]
     pub weakly_observed: u32,
+    /// Inclusive ranges `[first, last]` of consecutive scans weak for a reason other than
+    /// `weakly_observed` (scan indices, 0-based; the first [`MAX_GAP_SCANS`] ranges): where
+    /// the run's warning of weak scans says to look.
+    #[serde(default)]
+    pub doubtful_ranges: Vec<[u32; 2]>,
     /// Scans with no confident match (they did not enter the map).
     pub lost: u32,
     /// Inclusive ranges `[first, last]` of consecutive lost scans (scan indices, 0-based).
@@ -319,6 +324,14 @@ impl TrackingSummary {
             Verdict::Weak => {
                 self.weak += 1;
                 self.weakly_observed += u32::from(reason == Reason::WeaklyObserved);
+                let room = self.doubtful_ranges.len() < MAX_GAP_SCANS;
+                if reason != Reason::WeaklyObserved {
+                    match self.doubtful_ranges.last_mut() {
+                        Some(r) if r[1] + 1 == t => r[1] = t,
+                        _ if room => self.doubtful_ranges.push([t, t]),
+                        _ => {}
+                    }
+                }
             }
             Verdict::Lost => {
                 self.lost += 1;
@@ -349,6 +362,28 @@ mod tests {
         let old: TrackingSummary =
             serde_json::from_str(r#"{"ok": 3, "weak": 1, "lost": 0, "lost_ranges": []}"#).unwrap();
         assert_eq!(old.weakly_observed, 0);
+        assert!(old.doubtful_ranges.is_empty());
+    }
+
+    #[test]
+    fn scans_weak_for_a_doubt_are_kept_as_ranges_the_weakly_observed_not() {
+        let mut t = TrackingSummary::default();
+        let weak = [
+            (1, Reason::PoorFit),
+            (2, Reason::Ambiguous),
+            (3, Reason::WeaklyObserved),
+            (4, Reason::Degenerate),
+            (6, Reason::Slowed),
+        ];
+        for (scan, reason) in weak {
+            t.count(scan, Verdict::Weak, reason);
+        }
+        assert_eq!(t.doubtful_ranges, vec![[1, 2], [4, 4], [6, 6]]);
+        // Bounded: at most `MAX_GAP_SCANS` ranges are kept, however many there are.
+        for scan in (10..10 + 4 * MAX_GAP_SCANS as u32).step_by(2) {
+            t.count(scan, Verdict::Weak, Reason::PoorFit);
+        }
+        assert_eq!(t.doubtful_ranges.len(), MAX_GAP_SCANS);
     }
 
     #[test]
