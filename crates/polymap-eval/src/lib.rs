@@ -5,7 +5,8 @@
 //! A trajectory is a slice of `(stamp_s, map_from_robot)` pairs, in any order.
 //!
 //! Conventions used throughout:
-//! - stamps match when they differ by at most 1 ms ([`stamp_index::DEFAULT_STAMP_TOLERANCE_S`]);
+//! - stamps match when they differ by at most 1 ms ([`stamp_index::DEFAULT_STAMP_TOLERANCE_S`]),
+//!   a relation's by at most 5 µs, the same scan's ([`stamp_index::RELATION_STAMP_TOLERANCE_S`]);
 //!   the nearest wins, and among poses sharing a stamp the first in the input;
 //! - spreads are population standard deviations ([`stats::ErrorStats`]);
 //! - results are named structs deriving `Serialize`; metrics that need at least one sample

@@ -11,21 +11,21 @@ use polymap::geometry::{Pose2, normalize_angle_rad};
 use serde::Serialize;
 
 use crate::relations::Relation;
-use crate::stamp_index::{DEFAULT_STAMP_TOLERANCE_S, StampIndex};
+use crate::stamp_index::{RELATION_STAMP_TOLERANCE_S, StampIndex};
 use crate::stats::ErrorStats;
 
 /// Settings of the relations metric.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct RelationParams {
     /// Largest difference between a relation's stamp and a trajectory stamp for them to match,
-    /// seconds. Default [`DEFAULT_STAMP_TOLERANCE_S`] (1 ms).
+    /// seconds. Default [`RELATION_STAMP_TOLERANCE_S`] (5 µs: the same scan's stamp).
     pub stamp_tolerance_s: f64,
 }
 
 impl Default for RelationParams {
     fn default() -> Self {
         RelationParams {
-            stamp_tolerance_s: DEFAULT_STAMP_TOLERANCE_S,
+            stamp_tolerance_s: RELATION_STAMP_TOLERANCE_S,
         }
     }
 }

@@ -91,13 +91,33 @@ fn duplicate_stamp_takes_first_pose_and_tolerance_is_honoured() {
         (2.0, Pose2::new(1.0, 0.0, 0.0)),
         (2.0, Pose2::new(9.0, 0.0, 0.0)),
     ];
-    let near = rel(1.0, 2.0005, 1.0, 0.0, 0.0);
+    let near = rel(1.0, 2.000_002, 1.0, 0.0, 0.0);
     let m = evaluate_relations(&[near], &trajectory, &RelationParams::default());
     assert!(close(m.translation_m.unwrap().mean, 0.0));
     let strict = RelationParams {
-        stamp_tolerance_s: 1e-4,
+        stamp_tolerance_s: 1e-6,
     };
     assert_eq!(evaluate_relations(&[near], &trajectory, &strict).matched, 0);
+}
+
+/// A relation names a scan by its stamp: where a log's stamps bunch (Intel's last scans, 1 ms
+/// apart) and the trajectory lacks that scan (a run of every k-th scan), the scan next to it
+/// is no match.
+#[test]
+fn a_relation_to_a_scan_the_trajectory_lacks_is_unmatched_where_stamps_bunch() {
+    // Scans stamped 1 ms apart while the robot drives 0.4 m from one to the next; the run kept
+    // the scans at 10.000 and 10.002, not the relation's at 10.001.
+    let trajectory = [
+        (10.000, Pose2::IDENTITY),
+        (10.002, Pose2::new(0.8, 0.0, 0.0)),
+    ];
+    let rels = [rel(10.000, 10.001, 0.4, 0.0, 0.0)];
+    let m = evaluate_relations(&rels, &trajectory, &RelationParams::default());
+    assert_eq!(m.matched, 0);
+    let loose = RelationParams {
+        stamp_tolerance_s: 1e-3,
+    };
+    assert_eq!(evaluate_relations(&rels, &trajectory, &loose).matched, 1);
 }
 
 #[test]
