@@ -90,7 +90,7 @@ impl Attempt<'_> {
     /// of the anchor ([`Attempt::recover`]), when it fits well (twice that share) and doubles
     /// the inliers; a turned scan that is merely less bad is likelier a coincidence of the
     /// search.
-    pub(super) fn recovered(&self, from_starts: &AlignResult) -> Option<AlignResult> {
+    fn recovered(&self, from_starts: &AlignResult) -> Option<AlignResult> {
         let policy = self.config.starts;
         let share = policy.recover_below_inlier_share;
         let n = self.points.len() as f64;
