@@ -22,7 +22,9 @@ pub struct LoopParams {
     /// A node also ends once the robot has travelled this far (path length, metres) since its
     /// first scan, so that a node covers about the same ground however far apart the scans
     /// are (a sparse log, `--every K`); 0 (the default) turns it off. Measured in
-    /// `docs/decisions/2026-11-27-tracking-ideas-not-kept.md`: it helps every 3rd to 5th scan and makes dense runs fragile.
+    /// `docs/decisions/2026-11-27-tracking-ideas-not-kept.md` (dense runs fragile at 2 m) and
+    /// `docs/decisions/2026-12-03-loop-nodes-by-travel-and-confirmation-measured.md` (5 to
+    /// 12 m: every 10th scan mended, every 5th broken).
     pub node_travel_m: f64,
     /// Every this many scans of a node feed its submap...
     pub node_keep_every: u32,
