@@ -18,7 +18,9 @@
 
 use super::raster::ScoreRaster;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
-use search::{Block, CELL_CLAMP, Frontier, Prepared, Rotations, Search, ceil_log2, clamped_floor};
+use search::{Block, Frontier, Prepared, Rotations, Search, ceil_log2, cells_into};
+#[cfg(test)]
+use search::{CELL_CLAMP, clamped_floor};
 
 /// Highest block level: blocks of up to `2^6 = 64` cells a side.
 const MAX_LEVEL: u32 = 6;
@@ -401,7 +403,8 @@ impl CorrelativeMatcher {
             points: points.len(),
         };
         let origin = self.raster.origin();
-        let clamp = CELL_CLAMP as f64;
+        let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
+        let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
         for k in -count..=count {
             let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
             let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
@@ -409,17 +412,17 @@ impl CorrelativeMatcher {
             // once per rotation, in the same arithmetic (the same cells), in passes without
             // branches the compiler can vectorize: the cells, then their extent, then the flat
             // indices (this loop was an eighth of a sparse run's time).
-            let (sin, cos) = pose.theta_rad.sin_cos();
-            let t = pose.translation();
             let start = out.cells.len();
-            out.cells.extend(points.iter().map(|p| {
-                let qx = cos * p.x - sin * p.y + t.x;
-                let qy = sin * p.x + cos * p.y + t.y;
-                (
-                    clamped_floor((qx - origin.x) / cell, clamp),
-                    clamped_floor((qy - origin.y) / cell, clamp),
-                )
-            }));
+            let turn = pose.theta_rad.sin_cos();
+            cells_into(
+                &xs,
+                &ys,
+                turn,
+                pose.translation(),
+                origin,
+                cell,
+                &mut out.cells,
+            );
             let cells = &out.cells[start..];
             let extent = cells.iter().fold(
                 (i32::MAX, i32::MAX, i32::MIN, i32::MIN),

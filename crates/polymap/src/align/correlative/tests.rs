@@ -30,6 +30,39 @@ fn the_clamped_floor_is_the_floor_then_the_clamp() {
     }
 }
 
+#[test]
+fn the_cells_of_a_rotation_are_those_of_the_raster() {
+    let raster = ScoreRaster::new(Vec2::new(-3.1, -2.7), Vec2::new(4.3, 5.9), 0.1, 0.2);
+    let mut points: Vec<Vec2> = (0..97)
+        .map(|i| {
+            let a = i as f64 * 0.37;
+            Vec2::new(7.9 * a.cos() * (i as f64 / 97.0), 7.9 * a.sin())
+        })
+        .collect();
+    points.extend([Vec2::new(1e12, -1e12), Vec2::new(f64::NAN, 0.5)]);
+    let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
+    let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
+    for pose in [Pose2::new(0.3, -0.2, 0.7), Pose2::new(-1.05, 2.35, -2.9)] {
+        let mut cells = vec![(7, 7)];
+        let turn = pose.theta_rad.sin_cos();
+        cells_into(
+            &xs,
+            &ys,
+            turn,
+            pose.translation(),
+            raster.origin(),
+            0.1,
+            &mut cells,
+        );
+        assert_eq!(cells.len(), points.len() + 1, "appended");
+        for (p, &(x, y)) in points.iter().zip(&cells[1..]) {
+            let (wx, wy) = raster.cell_of(pose.transform_point(*p));
+            let clamp = |v: i64| v.clamp(-CELL_CLAMP, CELL_CLAMP);
+            assert_eq!((x as i64, y as i64), (clamp(wx), clamp(wy)), "{p:?}");
+        }
+    }
+}
+
 /// A room with a pillar and a doorway: asymmetric enough for one best pose.
 fn room() -> (Vec<Segment>, Vec<Vec2>) {
     let p = |x, y| Vec2::new(x, y);
