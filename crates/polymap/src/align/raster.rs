@@ -26,6 +26,9 @@ pub struct ScoreRaster {
     width: usize,
     height: usize,
     values: Vec<f32>,
+    /// The map-frame x of every column's centre, `origin.x + (x + 0.5) × cell`, computed once
+    /// (for [`ScoreRaster::add_segment`]).
+    centres_x: Vec<f64>,
 }
 
 impl ScoreRaster {
@@ -42,6 +45,7 @@ impl ScoreRaster {
                 width: 0,
                 height: 0,
                 values: Vec::new(),
+                centres_x: Vec::new(),
             };
         }
         let origin = lo - Vec2::splat(sigma_m);
@@ -59,6 +63,9 @@ impl ScoreRaster {
             width,
             height,
             values: super::buffers::zeroed(width * height),
+            centres_x: (0..width)
+                .map(|x| origin.x + (x as f64 + 0.5) * cell)
+                .collect(),
         }
     }
 
@@ -116,6 +123,7 @@ impl ScoreRaster {
         let (p, q) = (s.start - self.origin, s.end - self.origin);
         let (start, v) = (s.start, s.vector());
         let len_2 = v.length_squared();
+        let centres = &self.centres_x;
         for y in y0..=y1 {
             // Only the span of x where the segment, widened by σ, crosses this row.
             let (ylo, yhi) = (y as f64 * cell - sigma, (y + 1) as f64 * cell + sigma);
@@ -129,13 +137,12 @@ impl ScoreRaster {
             // it), in the arithmetic of `Segment::distance_2_to_point` at the cell's centre:
             // a cell farther than σ from the segment gets a value under 0, which raises no
             // cell (all start at 0), so the values are those of drawing only the cells that
-            // score. (`x` through `u32`: the conversion vectorizes; a raster has at most 2²⁰
-            // cells.)
+            // score. (The cells' centres along x come from a table: the same values, without
+            // a conversion and two operations per cell.)
             let cy = self.origin.y + (y as f64 + 0.5) * cell;
             let dy = cy - start.y;
             let row = &mut self.values[y * self.width + x0..=y * self.width + x1];
-            for (x, slot) in (x0..).zip(row.iter_mut()) {
-                let cx = self.origin.x + (x as u32 as f64 + 0.5) * cell;
+            for (&cx, slot) in centres[x0..=x1].iter().zip(row.iter_mut()) {
                 let dx = cx - start.x;
                 let t = match len_2 > 0.0 {
                     true => ((dx * v.x + dy * v.y) / len_2).clamp(0.0, 1.0),
