@@ -149,7 +149,7 @@ impl CorrelativeMatcher {
             for (out, row) in both.chunks_exact_mut(wu).zip(prev.chunks_exact(wu)) {
                 let split = wu.saturating_sub(half);
                 for ((o, a), b) in out[..split].iter_mut().zip(&row[..split]).zip(&row[half..]) {
-                    *o = a.max(*b);
+                    *o = larger(*a, *b);
                 }
                 out[split..].copy_from_slice(&row[split..]);
             }
@@ -160,7 +160,7 @@ impl CorrelativeMatcher {
                 let (done, rest) = both.split_at_mut(start + step);
                 let m = step.min(rest.len());
                 for (o, b) in done[start..start + m].iter_mut().zip(&rest[..m]) {
-                    *o = o.max(*b);
+                    *o = larger(*o, *b);
                 }
                 start += step;
             }
@@ -568,6 +568,14 @@ impl CorrelativeMatcher {
             block((size, size), &lanes[3]),
         ])
     }
+}
+
+/// The larger of two raster values. A raster holds no NaN and no −0 (its values are 0 or
+/// raised above it), where this is `f32::max`; without their cases it is one comparison
+/// the compiler vectorizes to one instruction (`f32::max` took five per value).
+#[inline]
+fn larger(a: f32, b: f32) -> f32 {
+    if a > b { a } else { b }
 }
 
 /// The mask of a level's indices: its length (a power of two) less one.

@@ -374,3 +374,29 @@ fn levels_are_a_power_of_two_long_and_reused_buffers_give_the_same_cells() {
         }
     }
 }
+
+/// Every cell of every level is the raster's maximum over its block (0 beyond the raster),
+/// the padding included.
+#[test]
+fn every_level_holds_the_maximum_over_its_blocks() {
+    let (segs, pillar) = room();
+    for (cell, half_xy) in [(0.1, 1.0), (0.07, 0.5), (0.3, 4.0)] {
+        let raster = ScoreRaster::of(&segs, &pillar, cell, 0.2);
+        let matcher = CorrelativeMatcher::for_window(raster.clone(), half_xy);
+        let (pw, ph, pad) = (matcher.padded_width, matcher.padded_height, matcher.pad);
+        for (h, values) in matcher.levels.iter().enumerate() {
+            let size = 1i64 << h;
+            for py in 0..ph {
+                for px in 0..pw {
+                    let (x, y) = (px - pad, py - pad);
+                    let want = (0..size)
+                        .flat_map(|dy| (0..size).map(move |dx| (x + dx, y + dy)))
+                        .map(|(cx, cy)| raster.cell(cx, cy))
+                        .fold(0f32, f32::max);
+                    let got = values[(py * pw + px) as usize];
+                    assert_eq!(got.to_bits(), want.to_bits(), "level {h} at {x}, {y}");
+                }
+            }
+        }
+    }
+}
