@@ -1,9 +1,10 @@
 //! Zeroed `f32` buffers for the rasters of the window search, reused from scan to scan.
 //!
-//! Every searched scan builds a likelihood raster and its block maxima (up to a few MiB each)
-//! and drops them again. Fresh zeroed memory of that size comes from the system page by page:
+//! Every searched scan builds a likelihood raster, its block maxima and some levels' values
+//! beside their siblings' (up to a few MiB each) and drops them again. Fresh zeroed memory of that size comes from the system page by page:
 //! on FR079 at every 3rd scan, page faults and zeroing were about 12 % of the run (`perf`).
-//! Buffers dropped by [`ScoreRaster`](super::ScoreRaster) and the correlative matcher go back
+//! Buffers dropped by [`ScoreRaster`](super::ScoreRaster), the correlative matcher and its
+//! searches go back
 //! to a small per-thread free list instead and are zeroed again when taken (or, for a caller
 //! that writes every value it reads, taken as they are); the values read are the same, so
 //! outputs are byte-identical.
@@ -11,8 +12,9 @@
 use std::cell::RefCell;
 
 /// At most this many buffers are kept per thread (the mapping thread and the loop thread each
-/// have their own list)...
-pub(crate) const MAX_KEPT: usize = 12;
+/// have their own list; a search holds a raster, up to seven levels and up to six levels'
+/// siblings at once)...
+pub(crate) const MAX_KEPT: usize = 20;
 /// ...holding at most this many `f32` values together (64 MiB).
 const MAX_KEPT_VALUES: usize = 16 << 20;
 

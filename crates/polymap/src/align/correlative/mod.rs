@@ -330,6 +330,7 @@ impl CorrelativeMatcher {
             let Some(leaf) = ctx.next(&mut frontier, floor) else {
                 break;
             };
+            drop(ctx);
             let c = prepared.candidate(self, window, leaf);
             exclusions.push(Exclusion {
                 center: c.map_from_robot,
@@ -355,13 +356,7 @@ impl CorrelativeMatcher {
         }
         let rotations = self.rotations(points_in_robot, window);
         let reach = self.translation_steps(window);
-        let ctx = Search {
-            matcher: self,
-            rotations: &rotations,
-            window,
-            reach,
-            exclusions,
-        };
+        let ctx = Search::new(self, &rotations, window, reach, exclusions);
         let mut best: Option<(f32, Block)> = None;
         for r in 0..rotations.len() {
             for ix in -reach..=reach {
@@ -460,114 +455,6 @@ impl CorrelativeMatcher {
         let cell = self.raster.cell_m();
         ((window.half_xy_m.max(0.0) / cell).ceil() as i64).min(1 << 16)
     }
-
-    /// The block at `(ix, iy)` of `level` for rotation `r`, with its bound.
-    fn block(&self, rotations: &Rotations, r: usize, ix: i64, iy: i64, level: u32) -> Block {
-        let values = &self.levels[level as usize];
-        let mask = masked(values);
-        let (ox, oy) = (ix + self.pad, iy + self.pad);
-        let inside = rotations.extent[r].is_some_and(|(x0, y0, x1, y1)| {
-            x0 + ox >= 0
-                && y0 + oy >= 0
-                && x1 + ox < self.padded_width
-                && y1 + oy < self.padded_height
-        });
-        // The same sum in the same order either way (f32 results are bit-identical): point
-        // `i` into lane `i % LANES`, the lanes added in order at the end. Independent lanes
-        // let the additions overlap (one chain of dependent additions was most of the cost),
-        // and any fixed order keeps a block's bound at or above every sum it covers.
-        let mut lanes = [0f32; LANES];
-        if inside {
-            let offset = oy * self.padded_width + ox;
-            let mut chunks = rotations.flat(r).chunks_exact(LANES);
-            for chunk in &mut chunks {
-                for (lane, &at) in lanes.iter_mut().zip(chunk) {
-                    *lane += values[(at as i64 + offset) as usize & mask];
-                }
-            }
-            for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
-                *lane += values[(at as i64 + offset) as usize & mask];
-            }
-        } else {
-            for (i, &(cx, cy)) in rotations.cells(r).iter().enumerate() {
-                let (x, y) = (cx as i64 + ox, cy as i64 + oy);
-                if x >= 0 && y >= 0 && x < self.padded_width && y < self.padded_height {
-                    lanes[i % LANES] += values[(y * self.padded_width + x) as usize];
-                }
-            }
-        }
-        let bound = lanes.iter().fold(0f32, |sum, lane| sum + lane);
-        Block {
-            rotation: r,
-            ix,
-            iy,
-            level,
-            bound,
-        }
-    }
-
-    /// The four blocks of `level` at `(ix, iy)`, `(ix + s, iy)`, `(ix, iy + s)` and `(ix + s,
-    /// iy + s)` with `s = 2^level` (the children of a block one level up), when all four lie
-    /// inside the raster (else `None`): each bound is [`CorrelativeMatcher::block`]'s sum in
-    /// its order (bit-identical), the four taken in one pass over the points, which shares
-    /// the index loads and lets four gathers overlap.
-    fn quad(
-        &self,
-        rotations: &Rotations,
-        r: usize,
-        ix: i64,
-        iy: i64,
-        level: u32,
-    ) -> Option<[Block; 4]> {
-        let size = 1i64 << level;
-        let (ox, oy) = (ix + self.pad, iy + self.pad);
-        let (x0, y0, x1, y1) = rotations.extent[r]?;
-        let inside = x0 + ox >= 0
-            && y0 + oy >= 0
-            && x1 + ox + size < self.padded_width
-            && y1 + oy + size < self.padded_height;
-        if !inside {
-            return None;
-        }
-        let values = &self.levels[level as usize];
-        let mask = masked(values);
-        let offset = oy * self.padded_width + ox;
-        let (right, up) = (size as usize, (size * self.padded_width) as usize);
-        let corners = [0, right, up, up + right];
-        let mut lanes = [[0f32; LANES]; 4];
-        let mut chunks = rotations.flat(r).chunks_exact(LANES);
-        for chunk in &mut chunks {
-            // Per child, the chunk's values gathered, then added lane by lane: the
-            // accumulators stay packed in registers.
-            for (lanes, corner) in lanes.iter_mut().zip(corners) {
-                let mut gathered = [0f32; LANES];
-                for (g, &at) in gathered.iter_mut().zip(chunk) {
-                    *g = values[((at as i64 + offset) as usize + corner) & mask];
-                }
-                for (lane, g) in lanes.iter_mut().zip(gathered) {
-                    *lane += g;
-                }
-            }
-        }
-        for (lanes, corner) in lanes.iter_mut().zip(corners) {
-            for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
-                *lane += values[((at as i64 + offset) as usize + corner) & mask];
-            }
-        }
-        let block = |(dx, dy), lanes: &[f32; LANES]| Block {
-            rotation: r,
-            ix: ix + dx,
-            iy: iy + dy,
-            level,
-            bound: lanes.iter().fold(0f32, |sum, lane| sum + lane),
-        };
-        Some([
-            block((0, 0), &lanes[0]),
-            block((size, 0), &lanes[1]),
-            block((0, size), &lanes[2]),
-            block((size, size), &lanes[3]),
-        ])
-    }
 }
 
 /// The larger of two raster values. A raster holds no NaN and no −0 (its values are 0 or
@@ -584,5 +471,6 @@ fn masked(values: &[f32]) -> usize {
 }
 
 mod search;
+mod sums;
 #[cfg(test)]
 mod tests;

@@ -1,8 +1,11 @@
 //! The search state of the correlative matcher: a window's rotations and the points' cells,
 //! blocks of translations with their bounds, the best-first queue, and the search over it.
 
-use super::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
+use super::sums::{SIBLINGS_AFTER, siblings};
+use super::{Candidate, CorrelativeMatcher, Exclusion, MAX_LEVEL, SearchWindow};
+use crate::align::buffers;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
+use std::cell::{Cell, OnceCell};
 use std::collections::BinaryHeap;
 
 /// The rotations of a window: for each, the points' cells at zero offset, all rotations in
@@ -210,13 +213,7 @@ impl Prepared {
         window: &'a SearchWindow,
         exclusions: &'a [Exclusion],
     ) -> Search<'a> {
-        Search {
-            matcher,
-            rotations: &self.rotations,
-            window,
-            reach: self.reach,
-            exclusions,
-        }
+        Search::new(matcher, &self.rotations, window, self.reach, exclusions)
     }
 
     /// The queue of this window's top blocks reaching `keep` (a sum of raster values).
@@ -250,6 +247,58 @@ pub(super) struct Search<'a> {
     pub(super) window: &'a SearchWindow,
     pub(super) reach: i64,
     pub(super) exclusions: &'a [Exclusion],
+    /// Per level, how many blocks' children were summed there, and its values beside their
+    /// siblings' once that reached [`SIBLINGS_AFTER`].
+    summed: [Cell<u32>; MAX_LEVEL as usize + 1],
+    siblings: [OnceCell<Vec<f32>>; MAX_LEVEL as usize + 1],
+}
+
+impl Drop for Search<'_> {
+    fn drop(&mut self) {
+        for cell in &mut self.siblings {
+            if let Some(v) = cell.take() {
+                buffers::recycle(v);
+            }
+        }
+    }
+}
+
+impl<'a> Search<'a> {
+    /// A search of `window` for the points of `rotations`, `reach` cells each way, outside
+    /// `exclusions`.
+    pub(super) fn new(
+        matcher: &'a CorrelativeMatcher,
+        rotations: &'a Rotations,
+        window: &'a SearchWindow,
+        reach: i64,
+        exclusions: &'a [Exclusion],
+    ) -> Self {
+        Search {
+            matcher,
+            rotations,
+            window,
+            reach,
+            exclusions,
+            summed: Default::default(),
+            siblings: Default::default(),
+        }
+    }
+
+    /// Level `level`'s values beside their siblings' ([`siblings`]) once this search has
+    /// summed the children of [`SIBLINGS_AFTER`] blocks there (built then); `None` before.
+    fn pairs(&self, level: u32) -> Option<&[[f32; 2]]> {
+        let l = level as usize;
+        let built = self.siblings.get(l)?.get().or_else(|| {
+            let n = self.summed[l].get() + 1;
+            self.summed[l].set(n);
+            (n >= SIBLINGS_AFTER).then(|| {
+                let m = self.matcher;
+                let len = (m.padded_width * m.padded_height) as usize;
+                self.siblings[l].get_or_init(|| siblings(&m.levels[l], len, level))
+            })
+        })?;
+        Some(built.as_chunks::<2>().0)
+    }
 }
 
 impl Search<'_> {
@@ -314,9 +363,11 @@ impl Search<'_> {
     pub(super) fn children(&self, b: &Block) -> [Option<Block>; 4] {
         let size = 1i64 << (b.level - 1);
         if b.ix + size <= self.reach && b.iy + size <= self.reach {
+            let level = b.level - 1;
+            let pairs = self.pairs(level);
             let quad = self
                 .matcher
-                .quad(self.rotations, b.rotation, b.ix, b.iy, b.level - 1);
+                .quad(self.rotations, b.rotation, (b.ix, b.iy), level, pairs);
             if let Some(quad) = quad {
                 return quad.map(Some);
             }

@@ -320,13 +320,26 @@ fn four_blocks_in_one_pass_are_the_four_sums() {
     };
     let rotations = matcher.rotations(&points, &window);
     let (mut summed, mut outside) = (0, 0);
-    for r in 0..rotations.len() {
-        for level in 0..=MAX_LEVEL {
+    let len = (matcher.padded_width * matcher.padded_height) as usize;
+    for level in 0..=MAX_LEVEL {
+        // Both ways: from the level, and from its values beside their siblings'.
+        let built = sums::siblings(&matcher.levels[level as usize], len, level);
+        let paired = Some(built.as_chunks::<2>().0);
+        for r in 0..rotations.len() {
             for (ix, iy) in [(-10, -10), (-3, 4), (0, 0), (200, 0), (-300, -300)] {
-                let Some(quad) = matcher.quad(&rotations, r, ix, iy, level) else {
+                let both = [None, paired].map(|p| matcher.quad(&rotations, r, (ix, iy), level, p));
+                let Some(quad) = both[0] else {
+                    assert!(both[1].is_none());
                     outside += 1;
                     continue;
                 };
+                let again = both[1].unwrap();
+                for (a, b) in quad.iter().zip(&again) {
+                    assert_eq!(
+                        (a.ix, a.iy, a.bound.to_bits()),
+                        (b.ix, b.iy, b.bound.to_bits())
+                    );
+                }
                 let size = 1i64 << level;
                 for (b, (dx, dy)) in quad
                     .iter()
