@@ -1,12 +1,12 @@
 //! Zeroed `f32` buffers for the rasters of the window search, reused from scan to scan.
 //!
 //! Every searched scan builds a likelihood raster, its block maxima and some levels' values
-//! beside their siblings' (up to a few MiB each) and drops them again. Fresh zeroed memory of that size comes from the system page by page:
-//! on FR079 at every 3rd scan, page faults and zeroing were about 12 % of the run (`perf`).
-//! Buffers dropped by [`ScoreRaster`](super::ScoreRaster), the correlative matcher and its
-//! searches go back
-//! to a small per-thread free list instead and are zeroed again when taken (or, for a caller
-//! that writes every value it reads, taken as they are); the values read are the same, so
+//! beside their siblings' (up to a few MiB each) and drops them again. Fresh zeroed memory of
+//! that size comes from the system page by page: on FR079 at every 3rd scan, page faults and
+//! zeroing were about 12 % of the run (`perf`). Buffers dropped by
+//! [`ScoreRaster`](super::ScoreRaster), the correlative matcher and its searches go back to a
+//! small per-thread free list instead and are zeroed again when taken (or, for a caller that
+//! writes every value it reads, taken as they are); the values read are the same, so
 //! outputs are byte-identical.
 
 use std::cell::RefCell;

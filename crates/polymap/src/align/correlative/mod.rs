@@ -19,8 +19,6 @@
 use super::raster::ScoreRaster;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use search::{Block, Frontier, Prepared, Rotations, Search, ceil_log2, cells_into};
-#[cfg(test)]
-use search::{CELL_CLAMP, clamped_floor};
 
 /// Highest block level: blocks of up to `2^6 = 64` cells a side.
 const MAX_LEVEL: u32 = 6;

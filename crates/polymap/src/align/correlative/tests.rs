@@ -1,3 +1,4 @@
+use super::search::{CELL_CLAMP, clamped_floor};
 use super::*;
 use crate::geometry::Segment;
 
