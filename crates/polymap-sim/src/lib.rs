@@ -10,9 +10,10 @@
 //!
 //! - [`world`]: [`World`] (walls, pillars, waypoints) and the catalogue of built-in worlds:
 //!   [`World::hallway45`] (default), [`World::hex60`], [`World::clutter`], [`World::office`],
-//!   and three that make tracking hard: [`World::corridor`] (bare in the middle),
-//!   [`World::ring`] (a pillar and a box its only features), [`World::hall360`] (360° laser); and one that changes during the tour: [`World::moved`]
-//!   (a cupboard carried elsewhere half way, [`world::Moved`]).
+//!   and four that make tracking hard: [`World::corridor`] (bare in the middle),
+//!   [`World::ring`] (a pillar and a box its only features), [`World::curve`] (two circular
+//!   bends), [`World::hall360`] (360° laser); and one that changes during the tour:
+//!   [`World::moved`] (a cupboard carried elsewhere half way, [`world::Moved`]).
 //!   Each world names the laser it is seen with ([`World::sim_params`]).
 //! - [`path`]: waypoints → a smooth, speed- and turn-rate-limited trajectory.
 //! - [`raycast`]: nearest hit along a ray; a grid-accelerated [`RayCaster`] and a brute-force

@@ -178,6 +178,12 @@ impl World {
         worlds::ring::build()
     }
 
+    /// A curved hallway: two circular bends, along which the motion is a rotation about the
+    /// bend's centre that the walls do not observe; door niches and the ends do.
+    pub fn curve() -> World {
+        worlds::curve::build()
+    }
+
     /// An L-shaped hall with pillars and boxes, mapped by a 360° laser; the tour turns on the
     /// spot.
     pub fn hall360() -> World {
@@ -185,7 +191,7 @@ impl World {
     }
 
     /// The names of the built-in worlds, default first.
-    pub fn names() -> [&'static str; 8] {
+    pub fn names() -> [&'static str; 9] {
         [
             "hallway45",
             "hex60",
@@ -193,6 +199,7 @@ impl World {
             "office",
             "corridor",
             "ring",
+            "curve",
             "hall360",
             "moved",
         ]
@@ -264,6 +271,7 @@ impl World {
             "office" => Some(World::office()),
             "corridor" => Some(World::corridor()),
             "ring" => Some(World::ring()),
+            "curve" => Some(World::curve()),
             "hall360" => Some(World::hall360()),
             "moved" => Some(World::moved()),
             _ => None,

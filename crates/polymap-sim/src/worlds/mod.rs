@@ -3,6 +3,7 @@
 pub(crate) mod build;
 pub(crate) mod clutter;
 pub(crate) mod corridor;
+pub(crate) mod curve;
 pub(crate) mod hall360;
 pub(crate) mod hallway45;
 pub(crate) mod hex60;
