@@ -336,6 +336,7 @@ mod tests {
             weakest: 0.0,
             strongest: 400.0,
             weakest_deg: 0.0,
+            ..Default::default()
         };
         d.align = Some(fit(200, 0.02, info));
         let c = covariance_xy_yaw(&d, 5.0);

@@ -233,6 +233,11 @@ pub struct TranslationInformation {
     pub strongest: f64,
     /// Map-frame direction of the least observed translation, degrees in `[0, 180)`.
     pub weakest_deg: f64,
+    /// The whole information of the fit over (x, y, θ), map frame, in the same units
+    /// (rotation in radians, so its entries carry metres): the upper triangle `[xx, xy, xθ,
+    /// yy, yθ, θθ]`. Not written out.
+    #[serde(skip)]
+    pub pose: [f64; 6],
 }
 
 impl TranslationInformation {

@@ -168,6 +168,7 @@ fn translation_information(h: &DMat3) -> TranslationInformation {
         } else {
             dy.atan2(dx).to_degrees().rem_euclid(180.0)
         },
+        pose: [xx, xy, xr, yy, yr, rr],
     };
     if info.weakest.is_finite() && info.strongest.is_finite() && info.weakest_deg.is_finite() {
         info

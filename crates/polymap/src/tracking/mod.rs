@@ -14,6 +14,7 @@
 //! `[mapper]`, the fixed values), `recent.rs`, `corner_seeds.rs`.
 
 mod corner_seeds;
+mod estimator;
 mod params;
 mod recent;
 mod speed;

@@ -83,6 +83,8 @@ pub(super) struct ObservedSpeed {
     last_gap_scale: Option<f64>,
     /// Steps recorded since the last whose stamps did not increase (or were missing).
     in_time: usize,
+    /// Seconds since the last observed step (the stamps' time of the steps since).
+    unobserved_s: f64,
 }
 
 impl ObservedSpeed {
@@ -114,6 +116,11 @@ impl ObservedSpeed {
         let usual = match (dt, typical) {
             (Some(dt), Some(m)) => (0.5 * m..=2.0 * m).contains(&dt),
             _ => true,
+        };
+        let taken = step.is_some() && observed && self.last_observed && usual;
+        self.unobserved_s = match taken {
+            true => 0.0,
+            false => self.unobserved_s + dt.unwrap_or(0.0),
         };
         if let Some(step) = step.filter(|_| observed && self.last_observed && usual) {
             self.motion = Some(step);
@@ -184,6 +191,30 @@ impl ObservedSpeed {
             true => ratio,
             false => 1.0,
         }
+    }
+
+    /// The time step to a scan stamped `stamp_s`, seconds, when the stamps keep time: the
+    /// last [`TYPICAL_DT_STEPS`] time steps increased and at most a fifth of them lie outside
+    /// half to twice the typical one (laxer than a gap's test: only this step's own length is
+    /// used), clamped to that range and to the longest gap the prediction spans. `None` where
+    /// the stamps do not time the steps (Intel's bunch: a quarter of its time steps are 1 ms).
+    pub(super) fn step_dt_s(&self, stamp_s: Option<f64>) -> Option<f64> {
+        let (a, b) = (self.last_stamp_s?, stamp_s?);
+        let typical = self
+            .typical_dt_s()
+            .filter(|_| self.in_time >= TYPICAL_DT_STEPS)?;
+        let irregular = self
+            .dts
+            .iter()
+            .filter(|&&dt| !(0.5 * typical..=2.0 * typical).contains(&dt))
+            .count();
+        (irregular <= TYPICAL_DT_STEPS / 5 && b > a)
+            .then(|| (b - a).clamp(0.5 * typical, GAP_SCALE_MAX * typical))
+    }
+
+    /// Seconds since the last observed step, by the stamps (0 without them).
+    pub(super) fn unobserved_s(&self) -> f64 {
+        self.unobserved_s
     }
 
     /// How many typical time steps the last step recorded spans (the gap's whole time, not
@@ -329,6 +360,26 @@ mod tests {
         }
         standing.record(Some(start), true, None);
         assert_eq!(standing.motion(), Some(start));
+    }
+
+    #[test]
+    fn the_time_since_the_speed_was_observed_grows_until_a_step_is_observed() {
+        let step = Some(Pose2::new(0.05, 0.0, 0.0));
+        let mut speed = ObservedSpeed::default();
+        speed.record(None, true, Some(0.0));
+        speed.record(step, true, Some(0.1));
+        assert_eq!(speed.unobserved_s(), 0.0);
+        // Three weak scans: 0.3 s since the speed was observed.
+        for k in 2..=4 {
+            speed.record(step, false, Some(0.1 * k as f64));
+        }
+        assert!((speed.unobserved_s() - 0.3).abs() < 1e-9);
+        // The first observed scan after them gives no step (its predecessor was weak)...
+        speed.record(step, true, Some(0.5));
+        assert!((speed.unobserved_s() - 0.4).abs() < 1e-9);
+        // ...the next one does.
+        speed.record(step, true, Some(0.6));
+        assert_eq!(speed.unobserved_s(), 0.0);
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
+use super::estimator::fuse;
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
@@ -123,7 +124,23 @@ impl Tracker {
             true => prior.guess,
             false => prior.anchor,
         };
-        let pose = align.map_or(fallback, |a| a.map_from_robot);
+        let mut pose = align.map_or(fallback, |a| a.map_from_robot);
+        // Without odometry the fit is fused with the motion prior where the stamps time it.
+        let fused = self.starts.motion_prior == MotionPrior::ConstantVelocity
+            && self.starts.keep_observed_velocity
+            && self.observed.motion().is_some()
+            && tracking.verdict != Verdict::Lost
+            && !map.is_empty();
+        if let (Some(a), true, Some(dt_s)) = (align, fused, self.observed.step_dt_s(scan.stamp_s)) {
+            let age_s = self.observed.unobserved_s();
+            pose = fuse(
+                pose,
+                &a.translation_information,
+                prior.unobserved_to,
+                dt_s,
+                age_s,
+            );
+        }
         self.take(at, scan, &prior, (pose, align, tracking), true)
     }
 

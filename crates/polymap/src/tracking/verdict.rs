@@ -274,6 +274,7 @@ mod tests {
                 weakest: 50.0,
                 strongest: 100.0,
                 weakest_deg: 0.0,
+                ..Default::default()
             },
         };
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Ok);

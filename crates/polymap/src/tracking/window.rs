@@ -321,6 +321,7 @@ mod tests {
                 weakest: 50.0,
                 strongest: 100.0,
                 weakest_deg: 0.0,
+                ..Default::default()
             },
         };
         assert!(!should_search(

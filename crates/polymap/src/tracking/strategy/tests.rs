@@ -1034,6 +1034,7 @@ fn weakly_along_x(r: AlignResult, weakest: f64) -> AlignResult {
             weakest,
             strongest: 100.0,
             weakest_deg: 0.0,
+            ..Default::default()
         },
         ..r
     }
