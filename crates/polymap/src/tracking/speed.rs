@@ -117,12 +117,12 @@ impl ObservedSpeed {
             (Some(dt), Some(m)) => (0.5 * m..=2.0 * m).contains(&dt),
             _ => true,
         };
-        let taken = step.is_some() && observed && self.last_observed && usual;
-        self.unobserved_s = match taken {
+        let taken = observed && self.last_observed && usual;
+        self.unobserved_s = match taken && step.is_some() {
             true => 0.0,
             false => self.unobserved_s + dt.unwrap_or(0.0),
         };
-        if let Some(step) = step.filter(|_| observed && self.last_observed && usual) {
+        if let Some(step) = step.filter(|_| taken) {
             self.motion = Some(step);
             let turn_rad = step.theta_rad.abs();
             let on_the_spot = turn_rad >= TURN_ON_THE_SPOT_AT_LEAST_RAD
@@ -181,13 +181,9 @@ impl ObservedSpeed {
         let Some(typical) = self.typical_dt_s().filter(|_| timed) else {
             return 1.0;
         };
-        let irregular = self
-            .dts
-            .iter()
-            .filter(|&&dt| !(0.5 * typical..=2.0 * typical).contains(&dt))
-            .count();
         let ratio = (b - a) / typical;
-        match irregular <= IRREGULAR_STEPS_AT_MOST && ratio >= GAP_ABOVE_TYPICAL {
+        match self.irregular_steps(typical) <= IRREGULAR_STEPS_AT_MOST && ratio >= GAP_ABOVE_TYPICAL
+        {
             true => ratio,
             false => 1.0,
         }
@@ -203,13 +199,16 @@ impl ObservedSpeed {
         let typical = self
             .typical_dt_s()
             .filter(|_| self.in_time >= TYPICAL_DT_STEPS)?;
-        let irregular = self
-            .dts
+        (self.irregular_steps(typical) <= TYPICAL_DT_STEPS / 5 && b > a)
+            .then(|| (b - a).clamp(0.5 * typical, GAP_SCALE_MAX * typical))
+    }
+
+    /// How many of the recent time steps lie outside half to twice `typical` (seconds).
+    fn irregular_steps(&self, typical: f64) -> usize {
+        self.dts
             .iter()
             .filter(|&&dt| !(0.5 * typical..=2.0 * typical).contains(&dt))
-            .count();
-        (irregular <= TYPICAL_DT_STEPS / 5 && b > a)
-            .then(|| (b - a).clamp(0.5 * typical, GAP_SCALE_MAX * typical))
+            .count()
     }
 
     /// Seconds since the last observed step, by the stamps (0 without them).
