@@ -197,6 +197,22 @@ fn a_point_by_a_faces_end_does_not_hold_the_robot_in_the_ring() {
     assert!(ate <= RING_ATE_M, "ring K=1: ATE {ate:.3} m");
 }
 
+/// The ring's whole run with clean odometry, metres. Along its bare stretches ICP, held by a
+/// few points, pulls the pose where the map ends; the odometry's step, fused with the fit in
+/// information form (`tracking/estimator.rs`), holds it: 0.06 m fused, 0.15 m (0.14–0.19 over
+/// seeds 1–5) when the fit's pose was taken as it came.
+const RING_ODOMETRY_ATE_M: f64 = 0.1;
+
+#[test]
+fn with_odometry_the_ring_takes_the_odometry_where_the_fit_is_weak() {
+    let ate = mapped("ring", 1, false, true).ate_all_m();
+    eprintln!("ring K=1 with odometry: ATE {ate:.3} m");
+    assert!(
+        ate <= RING_ODOMETRY_ATE_M,
+        "ring K=1 with odometry: ATE {ate:.3} m"
+    );
+}
+
 #[test]
 fn ring_bare_stretches_are_weak_or_lost() {
     check_bare_scans_flagged("ring");

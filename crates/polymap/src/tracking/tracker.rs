@@ -4,7 +4,7 @@
 //! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
-use super::estimator::fuse;
+use super::estimator::{MotionModel, fuse};
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
@@ -125,21 +125,33 @@ impl Tracker {
             false => prior.anchor,
         };
         let mut pose = align.map_or(fallback, |a| a.map_from_robot);
-        // Without odometry the fit is fused with the motion prior where the stamps time it.
-        let fused = self.starts.motion_prior == MotionPrior::ConstantVelocity
-            && self.starts.keep_observed_velocity
-            && self.observed.motion().is_some()
-            && tracking.verdict != Verdict::Lost
-            && !map.is_empty();
-        if let (Some(a), true, Some(dt_s)) = (align, fused, self.observed.step_dt_s(scan.stamp_s)) {
-            let age_s = self.observed.unobserved_s();
-            pose = fuse(
-                pose,
-                &a.translation_information,
-                prior.unobserved_to,
-                dt_s,
-                age_s,
-            );
+        // The fit is fused with the motion prior: the odometry's step, or without odometry the
+        // constant-velocity prediction where the stamps time it.
+        let placed = tracking.verdict != Verdict::Lost && !map.is_empty();
+        let motion = match self.starts.motion_prior {
+            MotionPrior::Odometry => self
+                .last_odom
+                .zip(scan.odom_from_robot)
+                .filter(|_| self.lost_streak == 0)
+                .map(|(a, b)| {
+                    let step = a.between(&b);
+                    (prior.guess, MotionModel::Odometry { step })
+                }),
+            MotionPrior::ConstantVelocity
+                if self.starts.keep_observed_velocity && self.observed.motion().is_some() =>
+            {
+                self.observed.step_dt_s(scan.stamp_s).map(|dt_s| {
+                    let age_s = self.observed.unobserved_s();
+                    (
+                        prior.unobserved_to,
+                        MotionModel::ConstantVelocity { dt_s, age_s },
+                    )
+                })
+            }
+            _ => None,
+        };
+        if let (Some(a), Some((to, model)), true) = (align, motion, placed) {
+            pose = fuse(pose, &a.translation_information, to, model);
         }
         self.take(at, scan, &prior, (pose, align, tracking), true)
     }

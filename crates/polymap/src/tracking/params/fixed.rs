@@ -150,6 +150,23 @@ pub const PRIOR_FLOOR_M: f64 = 0.005;
 /// Without that age the prior held ACES's weak scans to a stale speed: 0.0445 → 0.0528 m.
 pub const PRIOR_ACCEL_M_S2: f64 = 1.0;
 
+/// The odometry prior's error over one step, metres: a floor (the odometry's resolution and
+/// the stamps' jitter)...
+pub const ODOMETRY_FLOOR_M: f64 = 0.005;
+
+/// ...and this share of the distance driven (slip, wheel radius; 1 cm at ten scans a second
+/// of a robot at 0.5 m/s), generous for a log's odometry that the fit judges by.
+pub const ODOMETRY_PER_M: f64 = 0.1;
+
+/// The odometry's heading error over one step, degrees: a floor...
+pub const ODOMETRY_TURN_FLOOR_DEG: f64 = 0.5;
+
+/// ...this share of the turn read (wheel base; a turn read 30 % large is three of these)...
+pub const ODOMETRY_TURN_SHARE: f64 = 0.1;
+
+/// ...and this much per metre driven, degrees (unequal wheels).
+pub const ODOMETRY_TURN_PER_M_DEG: f64 = 2.0;
+
 // Where ICP starts (`[mapper]`).
 
 /// Share of the last scan-to-scan motion kept along directions ICP cannot observe, with the
