@@ -151,34 +151,41 @@ mod tests {
         }
     }
 
+    /// The constant-velocity prior `dt_s` after the last scan, its speed `age_s` old.
+    fn speed(dt_s: f64, age_s: f64) -> MotionModel {
+        MotionModel::ConstantVelocity { dt_s, age_s }
+    }
+
+    /// The information of a fit round a bend of radius 8 m about (0, 8): it cannot tell a
+    /// rotation about the centre, (dx, dy, dθ) = (8, 0, 1)·φ, and holds every other direction by
+    /// 400 points' worth.
+    fn bend() -> TranslationInformation {
+        let null = DVec3::new(8.0, 0.0, 1.0).normalize();
+        let h = (DMat3::IDENTITY
+            - glam::DMat3::from_cols(null * null.x, null * null.y, null * null.z))
+            * 400.0;
+        TranslationInformation {
+            weakest: 0.0,
+            strongest: 400.0,
+            weakest_deg: 0.0,
+            pose: [
+                h.x_axis.x, h.y_axis.x, h.z_axis.x, h.y_axis.y, h.z_axis.y, h.z_axis.z,
+            ],
+        }
+    }
+
     #[test]
     fn a_bare_corridor_takes_the_prior_along_it_and_the_fit_across() {
         let fit = Pose2::new(0.0, 0.0, 0.0);
         let prior = Pose2::new(0.05, 0.02, 0.01);
         // Ten scans a second, a corridor seen by 100 points a wall, held along by 1 point.
-        let fused = fuse(
-            fit,
-            &corridor(100.0, 1.0),
-            prior,
-            MotionModel::ConstantVelocity {
-                dt_s: 0.1,
-                age_s: 0.0,
-            },
-        );
+        let fused = fuse(fit, &corridor(100.0, 1.0), prior, speed(0.1, 0.0));
         // Along the corridor the prior's 5 cm nearly all; across it a tenth of its 2 cm at most.
         assert!((fused.x_m - 0.05).abs() < 0.01, "{fused:?}");
         assert!(fused.y_m.abs() < 0.1 * 0.02, "{fused:?}");
         assert_eq!(fused.theta_rad, 0.0);
         // Held along by a door frame's 200 points, the fit stays.
-        let held = fuse(
-            fit,
-            &corridor(100.0, 200.0),
-            prior,
-            MotionModel::ConstantVelocity {
-                dt_s: 0.1,
-                age_s: 0.0,
-            },
-        );
+        let held = fuse(fit, &corridor(100.0, 200.0), prior, speed(0.1, 0.0));
         assert!(held.x_m.abs() < 0.005, "{held:?}");
     }
 
@@ -189,24 +196,8 @@ mod tests {
         // under a fifth of the way.
         let fit = Pose2::new(0.0, 0.0, 0.0);
         let prior = Pose2::new(0.05, 0.0, 0.0);
-        let fresh = fuse(
-            fit,
-            &corridor(100.0, 5.0),
-            prior,
-            MotionModel::ConstantVelocity {
-                dt_s: 0.1,
-                age_s: 0.0,
-            },
-        );
-        let stale = fuse(
-            fit,
-            &corridor(100.0, 5.0),
-            prior,
-            MotionModel::ConstantVelocity {
-                dt_s: 0.1,
-                age_s: 2.0,
-            },
-        );
+        let fresh = fuse(fit, &corridor(100.0, 5.0), prior, speed(0.1, 0.0));
+        let stale = fuse(fit, &corridor(100.0, 5.0), prior, speed(0.1, 2.0));
         assert!(fresh.x_m > 0.025, "{fresh:?}");
         assert!(stale.x_m < 0.01, "{stale:?}");
     }
@@ -215,15 +206,7 @@ mod tests {
     fn at_one_scan_a_second_the_prior_tells_the_fit_next_to_nothing() {
         let fit = Pose2::new(0.0, 0.0, 0.0);
         let prior = Pose2::new(0.5, 0.0, 0.0);
-        let fused = fuse(
-            fit,
-            &corridor(100.0, 1.0),
-            prior,
-            MotionModel::ConstantVelocity {
-                dt_s: 1.0,
-                age_s: 0.0,
-            },
-        );
+        let fused = fuse(fit, &corridor(100.0, 1.0), prior, speed(1.0, 0.0));
         assert!(fused.x_m < 0.01, "{fused:?}");
     }
 
@@ -231,18 +214,7 @@ mod tests {
     fn round_a_bend_the_odometry_holds_the_turn_with_the_travel() {
         // The bend of the test below, now with odometry: the step straight on by 5 cm at ten
         // scans a second while the fit, held by nothing along the bend, stayed put.
-        let null = DVec3::new(8.0, 0.0, 1.0).normalize();
-        let h = (DMat3::IDENTITY
-            - glam::DMat3::from_cols(null * null.x, null * null.y, null * null.z))
-            * 400.0;
-        let information = TranslationInformation {
-            weakest: 0.0,
-            strongest: 400.0,
-            weakest_deg: 0.0,
-            pose: [
-                h.x_axis.x, h.y_axis.x, h.z_axis.x, h.y_axis.y, h.z_axis.y, h.z_axis.z,
-            ],
-        };
+        let information = bend();
         let step = Pose2::new(0.05, 0.0, 0.05 / 8.0);
         let fused = fuse(
             Pose2::IDENTITY,
@@ -296,30 +268,15 @@ mod tests {
 
     #[test]
     fn round_a_circular_bend_the_fit_keeps_the_robot_on_the_bend() {
-        // A bend of radius 8 m about (0, 8): the fit cannot tell a rotation about the centre,
-        // (dx, dy, dθ) = (8, 0, 1)·φ, and holds every other direction by 400 points' worth.
-        let null = DVec3::new(8.0, 0.0, 1.0).normalize();
-        let h = (DMat3::IDENTITY
-            - glam::DMat3::from_cols(null * null.x, null * null.y, null * null.z))
-            * 400.0;
-        let information = TranslationInformation {
-            weakest: 0.0,
-            strongest: 400.0,
-            weakest_deg: 0.0,
-            pose: [
-                h.x_axis.x, h.y_axis.x, h.z_axis.x, h.y_axis.y, h.z_axis.y, h.z_axis.z,
-            ],
-        };
+        // The fit round the bend (`bend`) and the prior straight on.
+        let information = bend();
         // The prior drives 5 cm straight on; the fused pose goes 5 cm round the bend and turns
         // by 5 cm / 8 m with it.
         let fused = fuse(
             Pose2::IDENTITY,
             &information,
             Pose2::new(0.05, 0.0, 0.0),
-            MotionModel::ConstantVelocity {
-                dt_s: 0.1,
-                age_s: 0.0,
-            },
+            speed(0.1, 0.0),
         );
         assert!((fused.x_m - 0.05).abs() < 0.002, "{fused:?}");
         assert!((fused.theta_rad - 0.05 / 8.0).abs() < 0.0005, "{fused:?}");
