@@ -127,7 +127,7 @@ impl Tracker {
         let mut pose = align.map_or(fallback, |a| a.map_from_robot);
         // The fit is fused with the motion prior: the odometry's step, or without odometry the
         // constant-velocity prediction where the stamps time it.
-        let placed = tracking.verdict != Verdict::Lost && !map.is_empty();
+        let fusable = tracking.verdict != Verdict::Lost && !map.is_empty();
         let motion = match self.starts.motion_prior {
             MotionPrior::Odometry => self
                 .last_odom
@@ -150,7 +150,7 @@ impl Tracker {
             }
             _ => None,
         };
-        if let (Some(a), Some((to, model)), true) = (align, motion, placed) {
+        if let (Some(a), Some((to, model)), true) = (align, motion, fusable) {
             pose = fuse(pose, &a.translation_information, to, model);
         }
         self.take(at, scan, &prior, (pose, align, tracking), true)
