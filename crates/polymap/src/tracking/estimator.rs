@@ -70,6 +70,20 @@ fn odometry_information(step: &Pose2) -> DMat3 {
     ))
 }
 
+/// Whether `pose` (map frame) lies where the robot could be, after the odometry read a step of
+/// `step` (robot frame of the scan before) to `guess` (map frame), only if the odometry failed:
+/// the squared Mahalanobis distance of their difference under the odometry's spread
+/// ([`odometry_information`]) over [`PRIOR_CONTRADICTS_CHI2`].
+pub(super) fn odometry_contradicts(guess: &Pose2, pose: &Pose2, step: &Pose2) -> bool {
+    let off = DVec3::new(
+        pose.x_m - guess.x_m,
+        pose.y_m - guess.y_m,
+        normalize_angle_rad(pose.theta_rad - guess.theta_rad),
+    );
+    let distance = off.dot(odometry_information(step) * off);
+    distance.is_nan() || distance > PRIOR_CONTRADICTS_CHI2
+}
+
 /// Where the motion prior comes from, and what spreads it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) enum MotionModel {
@@ -172,6 +186,30 @@ mod tests {
                 h.x_axis.x, h.y_axis.x, h.z_axis.x, h.y_axis.y, h.z_axis.y, h.z_axis.z,
             ],
         }
+    }
+
+    #[test]
+    fn a_pose_beyond_the_odometrys_spread_contradicts_it() {
+        let guess = Pose2::new(2.0, 1.0, 0.5);
+        // A step of 0.5 m and 30°: spread 5.5 cm, and 4.5° in the heading.
+        let step = Pose2::new(0.5, 0.0, 30f64.to_radians());
+        let off = |x: f64, y: f64, deg: f64| {
+            let pose = Pose2::new(
+                guess.x_m + x,
+                guess.y_m + y,
+                guess.theta_rad + deg.to_radians(),
+            );
+            odometry_contradicts(&guess, &pose, &step)
+        };
+        assert!(!off(0.0, 0.0, 0.0));
+        assert!(!off(0.1, 0.0, 0.0) && off(0.25, 0.0, 0.0));
+        assert!(!off(0.0, -0.1, 5.0) && off(0.0, 0.0, 20.0));
+        assert!(off(0.0, 0.0, 90.0) && off(0.0, 0.0, -270.0));
+        assert!(odometry_contradicts(
+            &guess,
+            &Pose2::new(f64::NAN, 0.0, 0.0),
+            &step
+        ));
     }
 
     #[test]

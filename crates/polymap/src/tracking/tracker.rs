@@ -88,6 +88,9 @@ struct Prior {
     anchor: Pose2,
     unobserved_to: Pose2,
     witness: Option<OdometryWitness>,
+    /// With the odometry prior, the odometry's step from the scan before (its robot frame),
+    /// when both carry odometry and that scan was not lost: what the guess moved by.
+    odometry_step: Option<Pose2>,
 }
 
 impl Tracker {
@@ -129,14 +132,9 @@ impl Tracker {
         // constant-velocity prediction where the stamps time it.
         let fusable = tracking.verdict != Verdict::Lost && !map.is_empty();
         let motion = match self.starts.motion_prior {
-            MotionPrior::Odometry => self
-                .last_odom
-                .zip(scan.odom_from_robot)
-                .filter(|_| self.lost_streak == 0)
-                .map(|(a, b)| {
-                    let step = a.between(&b);
-                    (prior.guess, MotionModel::Odometry { step })
-                }),
+            MotionPrior::Odometry => prior
+                .odometry_step
+                .map(|step| (prior.guess, MotionModel::Odometry { step })),
             MotionPrior::ConstantVelocity
                 if self.starts.keep_observed_velocity && self.observed.motion().is_some() =>
             {
@@ -209,11 +207,17 @@ impl Tracker {
     fn prior(&self, scan: &PreparedScan) -> Prior {
         let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot, scan.stamp_s);
         let witness = self.odometry_witness(scan.odom_from_robot);
+        let odometry_step = self
+            .last_odom
+            .zip(scan.odom_from_robot)
+            .filter(|_| self.starts.motion_prior == MotionPrior::Odometry && self.lost_streak == 0)
+            .map(|(a, b)| a.between(&b));
         Prior {
             guess,
             anchor,
             unobserved_to,
             witness,
+            odometry_step,
         }
     }
 
@@ -421,6 +425,7 @@ impl Tracker {
             anchor,
             unobserved_to,
             witness,
+            odometry_step,
         } = *prior;
         let (reference, dt_s) = reach_reference(self.last_ok, scan.stamp_s, guess);
         // With odometry, ICP restarts after a lost scan from the last `ok` pose moved by the
@@ -454,6 +459,7 @@ impl Tracker {
             recent: &self.recent,
             lost_streak: self.lost_streak,
             odometry_witness: witness,
+            odometry_step,
         };
         let config = TrackConfig {
             align: &self.align,

@@ -9,7 +9,8 @@
 //!    constant-velocity guess is wrong when a turn starts, stops or reverses); with the
 //!    odometry prior, the constant-velocity guess when it disagrees with odometry
 //!    (`tracking.odometry.odometry_check_m`, `odometry_check_deg`: a slip, a bad turn; its pose
-//!    overrules the odometry's only with a fit, [`Attempt::overrules_odometry`]); after a lost
+//!    overrules the odometry's only with a fit, [`Attempt::overrules_odometry`], and by ratio
+//!    where the odometry's spread contradicts it, [`Attempt::prefers`]); after a lost
 //!    scan (a poor fit, which the guess and anchor come from), the last `ok` pose (with the
 //!    odometry prior moved by the odometry since then, [`TrackInput::restart`]); the best coarse
 //!    rotation ([`rotation_search`]) when the robot turned faster than ICP's basin. With
@@ -147,6 +148,13 @@ pub struct TrackInput<'a> {
     /// Without the odometry prior, the log's odometry as a witness of the step, where the
     /// tracker trusts it to witness (`tracking.odometry.odometry_witness_m`).
     pub odometry_witness: Option<OdometryWitness>,
+    /// With the odometry prior, the odometry's step from the scan before (robot frame of that
+    /// scan), when both carry odometry and that scan was not lost: the guess is the previous
+    /// pose moved by it, and its spread ([`odometry_contradicts`]) bounds where the robot may
+    /// be without the odometry having failed.
+    ///
+    /// [`odometry_contradicts`]: crate::tracking::estimator::odometry_contradicts
+    pub odometry_step: Option<Pose2>,
 }
 
 /// The parameters [`track_scan`] follows: ICP's, tracking's, and the start policy of `[mapper]`

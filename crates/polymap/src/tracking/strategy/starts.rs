@@ -14,6 +14,7 @@ use crate::align::{
     fit_score_above, rotation_search, score_sample,
 };
 use crate::geometry::{Pose2, Segment, Vec2};
+use crate::tracking::estimator::odometry_contradicts;
 use crate::tracking::params::MotionPrior;
 use crate::tracking::params::START_SCORE_MARGIN;
 use crate::tracking::recent::LOOSE_OFF_MAP_M;
@@ -125,7 +126,7 @@ impl Attempt<'_> {
             let turned = rotation_search(self.points, input.map, cv, params);
             if turned != cv {
                 let from_turned = self.run_near(turned);
-                if better(&from_turned, &result) {
+                if self.prefers(&from_turned, &result) {
                     result = from_turned;
                 }
             }
@@ -283,7 +284,39 @@ impl Attempt<'_> {
         from_cv: &AlignResult,
         from_odometry: &AlignResult,
     ) -> bool {
-        better(from_cv, from_odometry) && !self.fits_poorly(from_cv)
+        self.prefers(from_cv, from_odometry) && !self.fits_poorly(from_cv)
+    }
+
+    /// Whether `pose` lies where the robot could be only if the odometry failed
+    /// ([`odometry_contradicts`]); false without the odometry's step.
+    pub(super) fn off_odometry(&self, pose: &Pose2) -> bool {
+        self.input
+            .odometry_step
+            .is_some_and(|step| odometry_contradicts(&self.input.guess, pose, &step))
+    }
+
+    /// Whether the odometry contradicts `other` ([`Attempt::off_odometry`]) and allows
+    /// `current`, a distinct place (`tracking.verdict.rival_apart_m`, `rival_apart_deg`): two
+    /// poses a few centimetres apart, one of them just past the spread of a turn on the spot,
+    /// are one place. `other` then must win by ratio ([`Attempt::wins_by_ratio`]), as a pose
+    /// away from the prediction does: a failed wheel is rarer than a scan that fits a pose a
+    /// quarter turn away nearly as well (Intel with odometry, every 10th scan, a nuisance
+    /// variant, phase 6, scan 850: the constant-velocity start's ICP, 90° and 1.1 m from the
+    /// odometry's guess, took the scan with 79 inliers against the odometry's 78, and the map
+    /// went 10.8 m off).
+    pub(super) fn against_odometry(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        let (a, b) = (&other.map_from_robot, &current.map_from_robot);
+        self.off_odometry(a) && !self.off_odometry(b) && self.config.tracking.apart(a, b)
+    }
+
+    /// Whether `other` explains the scan better than `current`, the odometry's spread weighed
+    /// in: by ratio against the odometry ([`Attempt::against_odometry`]), otherwise the
+    /// [`better`] fit.
+    pub(super) fn prefers(&self, other: &AlignResult, current: &AlignResult) -> bool {
+        match self.against_odometry(other, current) {
+            true => self.wins_by_ratio(other, current),
+            false => better(other, current),
+        }
     }
 
     /// Where ICP observed a direction by about one point only (weakest information under

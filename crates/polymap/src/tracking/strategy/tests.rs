@@ -90,6 +90,7 @@ fn with_attempt_starts<R>(
         recent: &recent,
         lost_streak,
         odometry_witness: None,
+        odometry_step: None,
     };
     let align = AlignParams {
         method,
@@ -809,6 +810,45 @@ fn the_scans_own_motion_overrules_odometry_only_with_a_fit() {
         assert!(!t.overrules_odometry(&with(half - 2), &with(half - 6)));
         // Fewer inliers: never.
         assert!(!t.overrules_odometry(&with(half + 1), &with(half + 3)));
+    });
+}
+
+/// With the odometry's step known, a pose the odometry contradicts must win by ratio against
+/// one it allows: the stalled wheel's scene, odometry having read a turn of 70° and 0.2 m, its
+/// spread 8° (Intel with odometry, every 10th scan: a pose a quarter turn from the odometry's
+/// guess took a scan by one inlier). Without the step (after a lost scan) the better fit wins.
+#[test]
+fn a_pose_the_odometry_contradicts_overrules_it_only_by_ratio() {
+    let (truth, guess, cv) = stalled_wheel();
+    let (align, tracking) = (AlignParams::default(), TrackParams::default());
+    with_odometry_attempt((truth, guess, cv), &align, &tracking, |t| {
+        let n = t.points.len();
+        let r = t.run(&[], truth);
+        let at = |pose: Pose2, inliers: usize| AlignResult {
+            map_from_robot: pose,
+            inliers,
+            ..r
+        };
+        let odometry = at(guess, n / 2);
+        let by_one = at(truth, n / 2 + 1);
+        let by_ratio = at(
+            truth,
+            (CORNER_WIN_RATIO * (n / 2) as f64 + 2.0).ceil() as usize,
+        );
+        assert!(by_ratio.inliers <= n, "{n} points");
+        assert!(t.overrules_odometry(&by_one, &odometry));
+        let read = Pose2::new(0.2, 0.0, 70f64.to_radians());
+        let input = TrackInput {
+            odometry_step: Some(read),
+            ..*t.input
+        };
+        let t = Attempt {
+            input: &input,
+            ..*t
+        };
+        assert!(t.off_odometry(&truth) && !t.off_odometry(&guess));
+        assert!(!t.overrules_odometry(&by_one, &odometry));
+        assert!(t.overrules_odometry(&by_ratio, &odometry));
     });
 }
 
