@@ -205,6 +205,13 @@ mod tests {
         assert!(!off(0.1, 0.0, 0.0) && off(0.25, 0.0, 0.0));
         assert!(!off(0.0, -0.1, 5.0) && off(0.0, 0.0, 20.0));
         assert!(off(0.0, 0.0, 90.0) && off(0.0, 0.0, -270.0));
+        // Across ±180°: 3.1 and −3.1 rad are 4.7° apart.
+        let back = Pose2::new(0.0, 0.0, 3.1);
+        let across = Pose2 {
+            theta_rad: -3.1,
+            ..back
+        };
+        assert!(!odometry_contradicts(&back, &across, &step));
         assert!(odometry_contradicts(
             &guess,
             &Pose2::new(f64::NAN, 0.0, 0.0),

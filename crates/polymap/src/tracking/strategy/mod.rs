@@ -150,10 +150,8 @@ pub struct TrackInput<'a> {
     pub odometry_witness: Option<OdometryWitness>,
     /// With the odometry prior, the odometry's step from the scan before (robot frame of that
     /// scan), when both carry odometry and that scan was not lost: the guess is the previous
-    /// pose moved by it, and its spread ([`odometry_contradicts`]) bounds where the robot may
-    /// be without the odometry having failed.
-    ///
-    /// [`odometry_contradicts`]: crate::tracking::estimator::odometry_contradicts
+    /// pose moved by it, and its spread (the motion prior's, `tracking/estimator.rs`) bounds
+    /// where the robot may be without the odometry having failed.
     pub odometry_step: Option<Pose2>,
 }
 

@@ -289,13 +289,13 @@ impl Attempt<'_> {
 
     /// Whether `pose` lies where the robot could be only if the odometry failed
     /// ([`odometry_contradicts`]); false without the odometry's step.
-    pub(super) fn off_odometry(&self, pose: &Pose2) -> bool {
+    pub(super) fn beyond_odometry_spread(&self, pose: &Pose2) -> bool {
         self.input
             .odometry_step
             .is_some_and(|step| odometry_contradicts(&self.input.guess, pose, &step))
     }
 
-    /// Whether the odometry contradicts `other` ([`Attempt::off_odometry`]) and allows
+    /// Whether the odometry contradicts `other` ([`Attempt::beyond_odometry_spread`]) and allows
     /// `current`, a distinct place (`tracking.verdict.rival_apart_m`, `rival_apart_deg`): two
     /// poses a few centimetres apart, one of them just past the spread of a turn on the spot,
     /// are one place. `other` then must win by ratio ([`Attempt::wins_by_ratio`]), as a pose
@@ -306,7 +306,9 @@ impl Attempt<'_> {
     /// went 10.8 m off).
     pub(super) fn against_odometry(&self, other: &AlignResult, current: &AlignResult) -> bool {
         let (a, b) = (&other.map_from_robot, &current.map_from_robot);
-        self.off_odometry(a) && !self.off_odometry(b) && self.config.tracking.apart(a, b)
+        self.beyond_odometry_spread(a)
+            && !self.beyond_odometry_spread(b)
+            && self.config.tracking.apart(a, b)
     }
 
     /// Whether `other` explains the scan better than `current`, the odometry's spread weighed

@@ -782,16 +782,28 @@ fn with_odometry_a_stalled_wheels_turn_is_searched_around_the_scans_own_motion()
         max_iterations: 3,
         ..AlignParams::default()
     };
+    // With the odometry's step known (a turn of 70° read), the truth lies beyond its spread
+    // and must win by ratio: it does, the odometry's pose fitting poorly.
     let (truth, guess, cv) = stalled_wheel();
     let tracking = TrackParams::default();
-    let (from_cv, found) = with_odometry_attempt((truth, guess, cv), &narrow, &tracking, |t| {
-        (t.run(&[], cv), t.icp_from_starts())
-    });
-    assert!(
-        from_cv.inliers < found.map_or(0, |r| r.inliers) / 2,
-        "{from_cv:?}"
-    );
-    assert_near(&truth, &(found, Tracking::default()));
+    for step in [None, Some(Pose2::new(0.2, 0.0, 70f64.to_radians()))] {
+        let (from_cv, found) = with_odometry_attempt((truth, guess, cv), &narrow, &tracking, |t| {
+            let input = TrackInput {
+                odometry_step: step,
+                ..*t.input
+            };
+            let t = Attempt {
+                input: &input,
+                ..*t
+            };
+            (t.run(&[], cv), t.icp_from_starts())
+        });
+        assert!(
+            from_cv.inliers < found.map_or(0, |r| r.inliers) / 2,
+            "{step:?}: {from_cv:?}"
+        );
+        assert_near(&truth, &(found, Tracking::default()));
+    }
 }
 
 #[test]
@@ -846,9 +858,14 @@ fn a_pose_the_odometry_contradicts_overrules_it_only_by_ratio() {
             input: &input,
             ..*t
         };
-        assert!(t.off_odometry(&truth) && !t.off_odometry(&guess));
+        assert!(t.beyond_odometry_spread(&truth) && !t.beyond_odometry_spread(&guess));
         assert!(!t.overrules_odometry(&by_one, &odometry));
         assert!(t.overrules_odometry(&by_ratio, &odometry));
+        // A pose 0.2 m from the odometry's guess, beyond its spread (2.5 cm) but no distinct
+        // place (`tracking.verdict.rival_apart_m`), is the same place: the better fit decides.
+        let near = Pose2::new(guess.x_m + 0.2, guess.y_m, guess.theta_rad);
+        assert!(t.beyond_odometry_spread(&near));
+        assert!(t.overrules_odometry(&at(near, n / 2 + 1), &odometry));
     });
 }
 
