@@ -208,10 +208,8 @@ impl Tracker {
         let (guess, anchor, unobserved_to) = self.guess(scan.odom_from_robot, scan.stamp_s);
         let witness = self.odometry_witness(scan.odom_from_robot);
         let odometry_step = self
-            .last_odom
-            .zip(scan.odom_from_robot)
-            .filter(|_| self.starts.motion_prior == MotionPrior::Odometry && self.lost_streak == 0)
-            .map(|(a, b)| a.between(&b));
+            .odometry_step(scan.odom_from_robot)
+            .filter(|_| self.starts.motion_prior == MotionPrior::Odometry && self.lost_streak == 0);
         Prior {
             guess,
             anchor,
@@ -371,13 +369,20 @@ impl Tracker {
                 }
             }
             MotionPrior::Odometry => {
-                let g = match (self.last_odom, odom_from_robot) {
-                    (Some(a), Some(b)) => last.compose(&a.between(&b)),
-                    _ => last,
+                let g = match self.odometry_step(odom_from_robot) {
+                    Some(step) => last.compose(&step),
+                    None => last,
                 };
                 (g, g, g)
             }
         }
+    }
+
+    /// The odometry's step from the last scan to one whose odometry pose is `odom_from_robot`
+    /// (robot frame of the last scan), when both are known.
+    fn odometry_step(&self, odom_from_robot: Option<Pose2>) -> Option<Pose2> {
+        let (a, b) = (self.last_odom?, odom_from_robot?);
+        Some(a.between(&b))
     }
 
     /// The constant-velocity step from the last pose to a scan stamped `stamp_s` (robot frame
