@@ -127,13 +127,18 @@ impl CorrelativeMatcher {
         let (pw, ph) = (w as i64 + pad, h as i64 + pad);
         let (wu, len) = (pw as usize, (pw * ph) as usize);
         let cap = len.next_power_of_two();
-        // Values past `len` are never read: only the cells are zeroed (and every level above
-        // the first is written whole before it is read).
+        // Values past `len` are never read: only the cells are written (and every level above
+        // the first is written whole before it is read). The first `pad` rows and the first
+        // `pad` cells of every row are zeros, the rest of each row the raster's row: each
+        // cell written once.
         let mut base = super::buffers::reused(cap);
-        base[..len].fill(0.0);
-        for (y, row) in raster.values().chunks(w.max(1)).enumerate() {
-            let at = (y as i64 + pad) * pw + pad;
-            base[at as usize..at as usize + row.len()].copy_from_slice(row);
+        let (top, rows) = base[..len].split_at_mut((pad * pw) as usize);
+        top.fill(0.0);
+        let padding = pad as usize;
+        for (out, row) in rows.chunks_exact_mut(wu).zip(raster.values().chunks(w.max(1))) {
+            let (zeros, cells) = out.split_at_mut(padding);
+            zeros.fill(0.0);
+            cells.copy_from_slice(row);
         }
         let mut levels = Vec::with_capacity(max_level as usize + 1);
         levels.push(base);
