@@ -66,6 +66,8 @@ struct Bins {
     /// many cells (then every query is answered "maybe").
     starts: Vec<u32>,
     points: Vec<Vec2>,
+    /// Each point's index in the points binned.
+    ids: Vec<u32>,
 }
 
 impl Bins {
@@ -93,6 +95,7 @@ impl Bins {
             height,
             starts: vec![0; (width * height) as usize + 1],
             points: vec![Vec2::ZERO; points.len()],
+            ids: vec![0; points.len()],
         };
         let index = |b: &Bins, p: Vec2| {
             let (x, y) = b.cell(p);
@@ -106,9 +109,10 @@ impl Bins {
             bins.starts[i] += bins.starts[i - 1];
         }
         let mut next = bins.starts.clone();
-        for &p in points {
+        for (id, &p) in points.iter().enumerate() {
             let i = index(&bins, p);
             bins.points[next[i] as usize] = p;
+            bins.ids[next[i] as usize] = id as u32;
             next[i] += 1;
         }
         bins
@@ -139,6 +143,43 @@ impl Bins {
             }
         }
         false
+    }
+
+    /// The nearest point to `q` where it lies within `max_m` (with its index), `Some(None)`
+    /// where none does; `None` where the bins cannot tell (no bins, no gate, or two points
+    /// equally near): every point within the gate lies in the nine cells around `q`'s, so
+    /// the nearest there is the nearest of all, the one a nearest-neighbour search finds
+    /// (in the same arithmetic) wherever no other point is exactly as near.
+    fn nearest_within(&self, q: Vec2, max_m: f64) -> Option<Option<(Vec2, usize)>> {
+        let gated = max_m <= LOOSE_GATE_M && max_m.is_finite();
+        if self.starts.is_empty() || !gated || !q.is_finite() {
+            return None;
+        }
+        let (cx, cy) = self.cell(q);
+        let mut best: Option<(f64, usize)> = None;
+        let mut tied = false;
+        for y in (cy - 1).max(0)..=(cy + 1).min(self.height - 1) {
+            for x in (cx - 1).max(0)..=(cx + 1).min(self.width - 1) {
+                let i = (y * self.width + x) as usize;
+                for k in self.starts[i] as usize..self.starts[i + 1] as usize {
+                    let d2 = self.points[k].distance_squared(q);
+                    match best {
+                        Some((b, _)) if d2 > b => {}
+                        Some((b, _)) if d2 == b => tied = true,
+                        _ => {
+                            best = Some((d2, k));
+                            tied = false;
+                        }
+                    }
+                }
+            }
+        }
+        match best {
+            Some((d2, _)) if d2 > max_m * max_m => Some(None),
+            Some(_) if tied => None,
+            Some((_, k)) => Some(Some((self.points[k], self.ids[k] as usize))),
+            None => Some(None),
+        }
     }
 }
 
@@ -218,22 +259,29 @@ impl PointTargets {
     /// The constraints for scan point `p_in_robot`, at `q` in the map frame, from the nearest
     /// target within `max_m`: none, one (point to line) or two (point to point).
     fn constrain(&self, p_in_robot: Vec2, q: Vec2, max_m: f64, out: &mut Vec<Constraint>) {
-        // No point within the gate: the nearest, wherever it is, lies beyond it.
-        if !self.bins.maybe_within(q, max_m) {
-            return;
-        }
-        let Some(t) = self.tree.nearest_neighbor([q.x, q.y]) else {
-            return;
+        // The nearest from the bins where they can tell (the tree's search cost many times
+        // more); no point within the gate: the nearest, wherever it is, lies beyond it.
+        let (at, id) = match self.bins.nearest_within(q, max_m) {
+            Some(Some(found)) => found,
+            Some(None) => return,
+            None => {
+                if !self.bins.maybe_within(q, max_m) {
+                    return;
+                }
+                let Some(t) = self.tree.nearest_neighbor([q.x, q.y]) else {
+                    return;
+                };
+                (Vec2::new(t.geom()[0], t.geom()[1]), t.data)
+            }
         };
-        let at = Vec2::new(t.geom()[0], t.geom()[1]);
         if at.distance_squared(q) > max_m * max_m {
             return;
         }
-        let shape = self.shapes[t.data].get_or_init(|| {
+        let shape = self.shapes[id].get_or_init(|| {
             let r2 = LOOSE_NEIGHBOURHOOD_M * LOOSE_NEIGHBOURHOOD_M;
             let near: Vec<Vec2> = self
                 .tree
-                .locate_within_distance(*t.geom(), r2)
+                .locate_within_distance([at.x, at.y], r2)
                 .map(|n| Vec2::new(n.geom()[0], n.geom()[1]))
                 .collect();
             shape_of(&near)
@@ -385,7 +433,8 @@ mod tests {
     use crate::segment_index::SegmentIndex;
 
     /// The bins say "none within the gate" exactly when the nearest point (by brute force)
-    /// lies beyond it, for queries on, near and far from the points and at cell borders.
+    /// lies beyond it, and find that nearest point where it lies within, for queries on, near
+    /// and far from the points and at cell borders.
     #[test]
     fn bins_tell_no_point_within_the_gate_exactly_when_none_is() {
         let points: Vec<Vec2> = (0..40)
@@ -409,6 +458,19 @@ mod tests {
                         .iter()
                         .any(|p| p.distance_squared(q) <= max_m * max_m);
                     assert_eq!(bins.maybe_within(q, max_m), within, "{q:?} {max_m}");
+                    // The nearest within the gate is the unique nearest of all points, or
+                    // the bins cannot tell where two are equally near.
+                    let d2 = |p: &Vec2| p.distance_squared(q);
+                    let nearest = points.iter().map(d2).fold(f64::INFINITY, f64::min);
+                    match bins.nearest_within(q, max_m) {
+                        Some(Some((at, id))) => {
+                            assert_eq!(points[id], at);
+                            assert_eq!(d2(&at), nearest);
+                            assert!(within);
+                        }
+                        Some(None) => assert!(!within, "{q:?} {max_m}"),
+                        None => assert!(points.iter().filter(|p| d2(p) == nearest).count() > 1),
+                    }
                     match within {
                         true => near += 1,
                         false => far += 1,

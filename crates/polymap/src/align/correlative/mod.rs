@@ -135,7 +135,10 @@ impl CorrelativeMatcher {
         let (top, rows) = base[..len].split_at_mut((pad * pw) as usize);
         top.fill(0.0);
         let padding = pad as usize;
-        for (out, row) in rows.chunks_exact_mut(wu).zip(raster.values().chunks(w.max(1))) {
+        for (out, row) in rows
+            .chunks_exact_mut(wu)
+            .zip(raster.values().chunks(w.max(1)))
+        {
             let (zeros, cells) = out.split_at_mut(padding);
             zeros.fill(0.0);
             cells.copy_from_slice(row);
