@@ -115,11 +115,7 @@ fn anchor_weak_directions(
     params: &AlignParams,
 ) -> (u8, Option<f64>) {
     let (values, vectors) = symmetric_eigen(h);
-    let to_anchor = DVec3::new(
-        anchor.x_m - pose.x_m,
-        anchor.y_m - pose.y_m,
-        normalize_angle_rad(anchor.theta_rad - pose.theta_rad),
-    );
+    let to_anchor = pose.offset_to(anchor);
     let mut weak = 0;
     let mut delta = DVec3::ZERO;
     let mut weakest: Option<(f64, DVec3)> = None;

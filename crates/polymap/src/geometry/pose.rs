@@ -108,6 +108,24 @@ impl Pose2 {
         )
     }
 
+    /// `other` less `self` over (x metres, y metres, θ radians) in the frame both are given
+    /// in, the heading along the shorter arc: the difference an information matrix over a
+    /// pose weighs.
+    ///
+    /// ```
+    /// use polymap::geometry::Pose2;
+    /// let d = Pose2::new(1.0, 2.0, 3.0).offset_to(&Pose2::new(1.5, 1.0, -3.0));
+    /// assert_eq!((d.x, d.y), (0.5, -1.0));
+    /// assert!((d.z - (std::f64::consts::TAU - 6.0)).abs() < 1e-12);
+    /// ```
+    pub fn offset_to(&self, other: &Pose2) -> glam::DVec3 {
+        glam::DVec3::new(
+            other.x_m - self.x_m,
+            other.y_m - self.y_m,
+            normalize_angle_rad(other.theta_rad - self.theta_rad),
+        )
+    }
+
     /// True when every field is finite.
     pub fn is_finite(&self) -> bool {
         self.x_m.is_finite() && self.y_m.is_finite() && self.theta_rad.is_finite()

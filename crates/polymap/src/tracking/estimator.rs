@@ -75,11 +75,7 @@ fn odometry_information(step: &Pose2) -> DMat3 {
 /// the squared Mahalanobis distance of their difference under the odometry's spread
 /// ([`odometry_information`]) over [`PRIOR_CONTRADICTS_CHI2`].
 pub(super) fn odometry_contradicts(guess: &Pose2, pose: &Pose2, step: &Pose2) -> bool {
-    let off = DVec3::new(
-        pose.x_m - guess.x_m,
-        pose.y_m - guess.y_m,
-        normalize_angle_rad(pose.theta_rad - guess.theta_rad),
-    );
+    let off = guess.offset_to(pose);
     let distance = off.dot(odometry_information(step) * off);
     distance.is_nan() || distance > PRIOR_CONTRADICTS_CHI2
 }
@@ -126,11 +122,7 @@ pub(super) fn fuse(
     }
     let [xx, xy, xr, yy, yr, rr] = information.pose.map(|v| v / FIT_VARIANCE_M2);
     let fit_information = DMat3::from_cols_array(&[xx, xy, xr, xy, yy, yr, xr, yr, rr]);
-    let towards = DVec3::new(
-        prior.x_m - fit.x_m,
-        prior.y_m - fit.y_m,
-        normalize_angle_rad(prior.theta_rad - fit.theta_rad),
-    );
+    let towards = fit.offset_to(&prior);
     let both = (fit_information + prior_information).inverse();
     let delta = both * (prior_information * towards);
     // (H_fit⁻¹ + H_prior⁻¹)⁻¹ = H_prior (H_fit + H_prior)⁻¹ H_fit, finite where either is.
@@ -282,21 +274,10 @@ mod tests {
             pose: [5.0, 0.0, 0.0, 300.0, 0.0, 3000.0],
         };
         let fit = Pose2::new(0.05, 0.0, 0.0);
-        let slipped = Pose2::new(0.25, 0.0, 0.0);
-        let far = fuse(
-            fit,
-            &information,
-            slipped,
-            MotionModel::Odometry { step: slipped },
-        );
-        assert_eq!(far, fit);
+        let read = |step: Pose2| fuse(fit, &information, step, MotionModel::Odometry { step });
+        assert_eq!(read(Pose2::new(0.25, 0.0, 0.0)), fit);
         let near = Pose2::new(0.055, 0.0, 0.0);
-        let fused = fuse(
-            fit,
-            &information,
-            near,
-            MotionModel::Odometry { step: near },
-        );
+        let fused = read(near);
         assert!(fused.x_m > fit.x_m && fused.x_m < near.x_m, "{fused:?}");
     }
 

@@ -304,7 +304,7 @@ impl Attempt<'_> {
     /// variant, phase 6, scan 850: the constant-velocity start's ICP, 90° and 1.1 m from the
     /// odometry's guess, took the scan with 79 inliers against the odometry's 78, and the map
     /// went 10.8 m off).
-    pub(super) fn against_odometry(&self, other: &AlignResult, current: &AlignResult) -> bool {
+    fn against_odometry(&self, other: &AlignResult, current: &AlignResult) -> bool {
         let (a, b) = (&other.map_from_robot, &current.map_from_robot);
         self.beyond_odometry_spread(a)
             && !self.beyond_odometry_spread(b)
@@ -314,7 +314,7 @@ impl Attempt<'_> {
     /// Whether `other` explains the scan better than `current`, the odometry's spread weighed
     /// in: by ratio against the odometry ([`Attempt::against_odometry`]), otherwise the
     /// [`better`] fit.
-    pub(super) fn prefers(&self, other: &AlignResult, current: &AlignResult) -> bool {
+    fn prefers(&self, other: &AlignResult, current: &AlignResult) -> bool {
         match self.against_odometry(other, current) {
             true => self.wins_by_ratio(other, current),
             false => better(other, current),
