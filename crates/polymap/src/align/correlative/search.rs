@@ -362,14 +362,34 @@ impl Search<'_> {
     /// The four blocks of the level below `b` (level > 0) that lie in the window.
     pub(super) fn children(&self, b: &Block) -> [Option<Block>; 4] {
         let size = 1i64 << (b.level - 1);
-        if b.ix + size <= self.reach && b.iy + size <= self.reach {
-            let level = b.level - 1;
+        let level = b.level - 1;
+        let (across, up) = (b.ix + size <= self.reach, b.iy + size <= self.reach);
+        if across && up {
             let pairs = self.pairs(level);
             let quad = self
                 .matcher
                 .quad(self.rotations, b.rotation, (b.ix, b.iy), level, pairs);
             if let Some(quad) = quad {
                 return quad.map(Some);
+            }
+        } else if across || up {
+            // At the window's far edge two children lie inside: summed in one pass (from the
+            // level's siblings if built, without counting towards building them).
+            let pairs = self
+                .siblings
+                .get(level as usize)
+                .and_then(OnceCell::get)
+                .map(|v| v.as_chunks::<2>().0);
+            let pair = self.matcher.pair(
+                self.rotations,
+                b.rotation,
+                (b.ix, b.iy),
+                level,
+                across,
+                pairs,
+            );
+            if let Some([a, c]) = pair {
+                return [Some(a), across.then_some(c), up.then_some(c), None];
             }
         }
         [(0, 0), (size, 0), (0, size), (size, size)].map(|(dx, dy)| {

@@ -69,6 +69,34 @@ fn sum_four(flat: &[i32], four: impl Fn(i32) -> [f32; 4]) -> [[f32; LANES]; 4] {
     lanes
 }
 
+/// The sums of two children over the points at flat indices `flat`, the values of a point
+/// given by `two`: point `i` into lane `i % LANES` of each child (the order of
+/// [`CorrelativeMatcher::block`]).
+#[inline(always)]
+fn sum_two(flat: &[i32], two: impl Fn(i32) -> [f32; 2]) -> [[f32; LANES]; 2] {
+    let mut lanes = [[0f32; LANES]; 2];
+    let mut chunks = flat.chunks_exact(LANES);
+    for chunk in &mut chunks {
+        let mut gathered = [[0f32; LANES]; 2];
+        for (k, &at) in chunk.iter().enumerate() {
+            for (g, v) in gathered.iter_mut().zip(two(at)) {
+                g[k] = v;
+            }
+        }
+        for (lanes, g) in lanes.iter_mut().zip(gathered) {
+            for (lane, v) in lanes.iter_mut().zip(g) {
+                *lane += v;
+            }
+        }
+    }
+    for (k, &at) in chunks.remainder().iter().enumerate() {
+        for (lanes, v) in lanes.iter_mut().zip(two(at)) {
+            lanes[k] += v;
+        }
+    }
+    lanes
+}
+
 impl CorrelativeMatcher {
     /// The block at `(ix, iy)` of `level` for rotation `r`, with its bound.
     pub(super) fn block(
@@ -182,6 +210,69 @@ impl CorrelativeMatcher {
             block((0, size), &lanes[2]),
             block((size, size), &lanes[3]),
         ])
+    }
+}
+
+impl CorrelativeMatcher {
+    /// The two blocks of `level` at `(ix, iy)` and at `(ix + s, iy)` (`across`) or `(ix, iy +
+    /// s)` (else), `s = 2^level`: the children of a block one level up at the window's far
+    /// edge, where the other two lie outside the window. `None` unless the block one level up
+    /// lies inside the raster (as for [`CorrelativeMatcher::quad`]). Each bound is
+    /// [`CorrelativeMatcher::block`]'s sum in its order (bit-identical), the two taken in one
+    /// pass over the points; with the level's `pairs` ([`siblings`]) the two blocks across are
+    /// one load per point.
+    pub(super) fn pair(
+        &self,
+        rotations: &Rotations,
+        r: usize,
+        (ix, iy): (i64, i64),
+        level: u32,
+        across: bool,
+        pairs: Option<&[[f32; 2]]>,
+    ) -> Option<[Block; 2]> {
+        let size = 1i64 << level;
+        let (ox, oy) = (ix + self.pad, iy + self.pad);
+        let (x0, y0, x1, y1) = rotations.extent[r]?;
+        let inside = x0 + ox >= 0
+            && y0 + oy >= 0
+            && x1 + ox + size < self.padded_width
+            && y1 + oy + size < self.padded_height;
+        if !inside {
+            return None;
+        }
+        let offset = oy * self.padded_width + ox;
+        let step = match across {
+            true => size as usize,
+            false => (size * self.padded_width) as usize,
+        };
+        let lanes = match pairs {
+            Some(pairs) if across => {
+                let mask = pairs.len().wrapping_sub(1);
+                sum_two(rotations.flat(r), |at| {
+                    pairs[(at as i64 + offset) as usize & mask]
+                })
+            }
+            _ => {
+                let values = &self.levels[level as usize];
+                let mask = masked(values);
+                sum_two(rotations.flat(r), |at| {
+                    let here = (at as i64 + offset) as usize;
+                    [values[here & mask], values[(here + step) & mask]]
+                })
+            }
+        };
+        let (dx, dy) = match across {
+            true => (size, 0),
+            false => (0, size),
+        };
+        let block = |(dx, dy), lanes: &[f32; LANES]| Block {
+            rotation: r,
+            ix: ix + dx,
+            iy: iy + dy,
+            level,
+            bound: lanes.iter().fold(0f32, |sum, lane| sum + lane),
+        };
+        Some([block((0, 0), &lanes[0]), block((dx, dy), &lanes[1])])
     }
 }
 

@@ -360,6 +360,59 @@ fn four_blocks_in_one_pass_are_the_four_sums() {
     assert!(summed > 0 && outside > 0, "{summed} {outside}");
 }
 
+/// Two neighbouring blocks (across or up) summed in one pass carry the bit-identical bounds
+/// of two separate sums, at every level and rotation, from the level and from its values
+/// beside their siblings'; blocks reaching past the raster are left to the sums with checks.
+#[test]
+fn two_blocks_in_one_pass_are_the_two_sums() {
+    let (segs, pillar) = room();
+    let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
+    let points = scan_of(&segs, &pillar, Pose2::new(0.3, -0.2, 0.2));
+    let window = SearchWindow {
+        center: Pose2::new(0.1, 0.1, 0.1),
+        half_xy_m: 1.0,
+        half_theta_rad: 0.3,
+    };
+    let rotations = matcher.rotations(&points, &window);
+    let (mut summed, mut outside) = (0, 0);
+    let len = (matcher.padded_width * matcher.padded_height) as usize;
+    for level in 0..=MAX_LEVEL {
+        let built = sums::siblings(&matcher.levels[level as usize], len, level);
+        let paired = Some(built.as_chunks::<2>().0);
+        let size = 1i64 << level;
+        for r in 0..rotations.len() {
+            for (ix, iy) in [(-10, -10), (-3, 4), (0, 0), (7, -9), (200, 0), (-300, -300)] {
+                for across in [true, false] {
+                    let both = [None, paired]
+                        .map(|p| matcher.pair(&rotations, r, (ix, iy), level, across, p));
+                    let Some(two) = both[0] else {
+                        assert!(both[1].is_none());
+                        outside += 1;
+                        continue;
+                    };
+                    let (dx, dy) = if across { (size, 0) } else { (0, size) };
+                    for (b, (bx, by)) in two.iter().chain(&both[1].unwrap()).zip([
+                        (ix, iy),
+                        (ix + dx, iy + dy),
+                        (ix, iy),
+                        (ix + dx, iy + dy),
+                    ]) {
+                        let one = matcher.block(&rotations, r, bx, by, level);
+                        assert_eq!(
+                            (b.ix, b.iy, b.level, b.rotation),
+                            (bx, by, level, r),
+                            "{level} {across}"
+                        );
+                        assert_eq!(b.bound.to_bits(), one.bound.to_bits());
+                    }
+                    summed += 1;
+                }
+            }
+        }
+    }
+    assert!(summed > 0 && outside > 0, "{summed} {outside}");
+}
+
 /// Every level is as long as a power of two, at least its padded cells: a cell's index
 /// masked by the length less one is the index itself. A matcher built on reused buffers
 /// holding other values has the same cells.
