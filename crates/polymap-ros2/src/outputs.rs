@@ -326,6 +326,7 @@ mod tests {
             weak_directions: 0,
             weak_direction_deg: None,
             translation_information: info,
+            weighed_prior: false,
         }
     }
 

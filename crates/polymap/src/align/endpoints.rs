@@ -1,6 +1,6 @@
 //! The paper's correspondences: segment endpoints to closest points, both ways.
 
-use super::solver::{Constraint, run_icp};
+use super::solver::{Constraint, PosePrior, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::geometry::{Pose2, Segment};
 
@@ -8,16 +8,18 @@ use crate::geometry::{Pose2, Segment};
 ///
 /// Each scan endpoint is paired with its closest map point, and each endpoint of `map_near`
 /// (the map segments in the scan's neighbourhood) within the gate of the scan with its closest
-/// scan point; every pair constrains both coordinates. Unobservable directions end on `anchor`.
+/// scan point; every pair constrains both coordinates. Unobservable directions end on `anchor`;
+/// a `prior` is weighed with the fit at every step ([`PosePrior`]).
 pub fn align_endpoints(
     scan_in_robot: &[Segment],
     map: &impl SegmentLookup,
     map_near: &[Segment],
     guess: Pose2,
     anchor: Pose2,
+    prior: Option<&PosePrior>,
     params: &AlignParams,
 ) -> AlignResult {
-    run_icp(guess, anchor, params, |pose, gate_m, out| {
+    run_icp(guess, anchor, prior, params, |pose, gate_m, out| {
         for e in scan_in_robot.iter().flat_map(|s| [s.start, s.end]) {
             if let Some((_, projection)) = map.nearest_segment(pose.transform_point(e), gate_m) {
                 out.extend(Constraint::point_pair(e, projection.point));

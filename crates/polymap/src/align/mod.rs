@@ -56,7 +56,7 @@ pub use point_to_segment::{
 };
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
-pub use solver::Constraint;
+pub use solver::{Constraint, PosePrior};
 
 /// Which correspondences drive ICP.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -220,6 +220,10 @@ pub struct AlignResult {
     /// were put on the anchor).
     #[serde(default)]
     pub translation_information: TranslationInformation,
+    /// Whether ICP weighed a motion prior with the fit at every step ([`PosePrior`]): the pose
+    /// is then the estimate of both, the information still the fit's own.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub weighed_prior: bool,
 }
 
 /// How well a fit fixes the translation, the rotation marginalized out: the eigenvalues of the

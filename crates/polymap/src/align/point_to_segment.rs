@@ -1,6 +1,6 @@
 //! Point-to-segment ICP on the scan's points (an addition to the paper).
 
-use super::solver::{Constraint, run_icp};
+use super::solver::{Constraint, PosePrior, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::extract::fit_line;
 use crate::geometry::{Pose2, Segment, Vec2};
@@ -328,20 +328,23 @@ pub fn align_points(
     anchor: Pose2,
     params: &AlignParams,
 ) -> AlignResult {
-    align_points_and_loose(points_in_robot, map, None, guess, anchor, params)
+    align_points_and_loose(points_in_robot, map, None, guess, anchor, None, params)
 }
 
 /// [`align_points`], where a scan point no map segment explains within the gate may also match
-/// the nearest of `targets` within it (see [`PointTargets`]).
+/// the nearest of `targets` within it (see [`PointTargets`]), and a `prior` is weighed with the
+/// fit at every step ([`PosePrior`]).
 pub fn align_points_and_loose(
     points_in_robot: &[Vec2],
     map: &impl SegmentLookup,
     targets: Option<&PointTargets>,
     guess: Pose2,
     anchor: Pose2,
+    prior: Option<&PosePrior>,
     params: &AlignParams,
 ) -> AlignResult {
-    align_points_matched(points_in_robot, map, targets, guess, anchor, params, false)
+    let held = Held { anchor, prior };
+    align_points_matched(points_in_robot, map, targets, guess, held, params, false)
 }
 
 /// A beam whose direction has a component under this along a segment's normal (it runs
@@ -360,9 +363,17 @@ pub fn align_points_past_ends(
     targets: Option<&PointTargets>,
     guess: Pose2,
     anchor: Pose2,
+    prior: Option<&PosePrior>,
     params: &AlignParams,
 ) -> AlignResult {
-    align_points_matched(points_in_robot, map, targets, guess, anchor, params, true)
+    let held = Held { anchor, prior };
+    align_points_matched(points_in_robot, map, targets, guess, held, params, true)
+}
+
+/// Where ICP leaves the directions the fit cannot observe, and the prior it weighs.
+struct Held<'a> {
+    anchor: Pose2,
+    prior: Option<&'a PosePrior>,
 }
 
 fn align_points_matched(
@@ -370,14 +381,15 @@ fn align_points_matched(
     map: &impl SegmentLookup,
     targets: Option<&PointTargets>,
     guess: Pose2,
-    anchor: Pose2,
+    held: Held<'_>,
     params: &AlignParams,
     skip_past_ends: bool,
 ) -> AlignResult {
     // Per point, what the last search found: while a point moves little between iterations,
     // its nearest segment is known without searching again (same answers, exactly).
     let mut certificates: Vec<Option<NearestCertificate>> = vec![None; points_in_robot.len()];
-    run_icp(guess, anchor, params, |pose, gate_m, out| {
+    let Held { anchor, prior } = held;
+    run_icp(guess, anchor, prior, params, |pose, gate_m, out| {
         for (&p, certificate) in points_in_robot.iter().zip(&mut certificates) {
             let q = pose.transform_point(p);
             let known = certificate.and_then(|c| c.answer(q, gate_m));
@@ -518,15 +530,15 @@ mod tests {
         let params = AlignParams::default();
         let at = Pose2::new(0.0, 0.0, 0.0);
         let (map, points) = corridor_with_a_face(1.21);
-        let pinned = align_points_and_loose(&points, &map, None, at, at, &params);
+        let pinned = align_points_and_loose(&points, &map, None, at, at, None, &params);
         assert_eq!(pinned.weak_directions, 0, "{pinned:?}");
         let info = pinned.translation_information.weakest;
         assert!(info > 0.5 && info < 1.5, "{pinned:?}");
-        let free = align_points_past_ends(&points, &map, None, at, at, &params);
+        let free = align_points_past_ends(&points, &map, None, at, at, None, &params);
         assert_eq!(free.weak_directions, 1, "{free:?}");
         // Well inside the face (0.25 m from its end), the point is evidence either way.
         let (map, points) = corridor_with_a_face(1.0);
-        let kept = align_points_past_ends(&points, &map, None, at, at, &params);
+        let kept = align_points_past_ends(&points, &map, None, at, at, None, &params);
         assert_eq!(kept.weak_directions, 0, "{kept:?}");
         assert!(kept.translation_information.weakest > 0.5, "{kept:?}");
     }

@@ -35,6 +35,19 @@ impl Constraint {
     }
 }
 
+/// A motion prior ICP weighs with the fit at every step: the pose it predicts (map frame) and
+/// its information over (x, y, θ) in the fit's own units (one fully weighted point-to-line
+/// correspondence adds up to 1 along its normal; 1/m², 1/(m·rad), 1/rad²). ICP then ends at the
+/// pose that best agrees with both, not at the nearest pose that fits the map alone: along a
+/// direction the scan observes by a few points, the prior's information outweighs them.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PosePrior {
+    /// The pose the prior predicts, map frame.
+    pub pose: Pose2,
+    /// Its information over (x, y, θ), in the fit's units.
+    pub information: DMat3,
+}
+
 /// Residual statistics of a set of constraints at one pose.
 struct Stats {
     rms_m: f64,
@@ -60,9 +73,19 @@ fn stats(constraints: &[Constraint], pose: &Pose2, robust_scale_m: f64) -> Stats
 /// One Gauss–Newton step with Cauchy weights, degeneracy-aware: the update is only taken along
 /// eigenvectors of the normal matrix whose eigenvalue reaches `min_information`. Along weaker
 /// directions (a featureless corridor) the pose stays where the motion prior put it. `None`
-/// when no direction is constrained.
-fn step(constraints: &[Constraint], pose: &Pose2, params: &AlignParams) -> Option<Pose2> {
-    let (h, g) = normal_equations(constraints, pose, params);
+/// when no direction is constrained. A `prior` adds its information and its pull to the
+/// normal equations.
+fn step(
+    constraints: &[Constraint],
+    pose: &Pose2,
+    prior: Option<&PosePrior>,
+    params: &AlignParams,
+) -> Option<Pose2> {
+    let (mut h, mut g) = normal_equations(constraints, pose, params);
+    if let Some(p) = prior {
+        h += p.information;
+        g += p.information * p.pose.offset_to(pose);
+    }
     let (values, vectors) = symmetric_eigen(h);
     let mut delta = DVec3::ZERO;
     let mut constrained = false;
@@ -227,11 +250,14 @@ fn outer(a: DVec3, b: DVec3) -> DMat3 {
 
 /// Runs ICP from `guess`: `gather` fills the constraints for a pose and a gate (metres).
 ///
-/// Along directions the final constraints leave unobservable, the result is moved onto
-/// `anchor` (for instance the previous pose: "no evidence of motion, assume none").
+/// Each step minimizes the fit, and with a `prior` the fit plus the prior. Along directions the
+/// final constraints leave unobservable, the result is moved onto `anchor` (for instance the
+/// previous pose: "no evidence of motion, assume none"). The result's information is the
+/// fit's own, without the prior's: it says what the scan observed.
 pub(crate) fn run_icp(
     guess: Pose2,
     anchor: Pose2,
+    prior: Option<&PosePrior>,
     params: &AlignParams,
     mut gather: impl FnMut(&Pose2, f64, &mut Vec<Constraint>),
 ) -> AlignResult {
@@ -247,6 +273,7 @@ pub(crate) fn run_icp(
         weak_directions: 0,
         weak_direction_deg: None,
         translation_information: TranslationInformation::default(),
+        weighed_prior: prior.is_some(),
     };
     for i in 0..params.max_iterations {
         constraints.clear();
@@ -262,13 +289,14 @@ pub(crate) fn run_icp(
             weak_directions: 0,
             weak_direction_deg: None,
             translation_information: TranslationInformation::default(),
+            weighed_prior: prior.is_some(),
         };
         if constraints.len() < params.min_correspondences {
             result.map_from_robot = anchor;
             result.weak_directions = 3;
             return result;
         }
-        let Some(next) = step(&constraints, &pose, params) else {
+        let Some(next) = step(&constraints, &pose, prior, params) else {
             break;
         };
         let moved_m = (next.translation() - pose.translation()).length();
@@ -301,6 +329,51 @@ pub(crate) fn run_icp(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A prior is weighed with the fit in information form: along the corridor, which two
+    /// points of a door frame observe, a prior of far more information holds the pose; across
+    /// it, where the walls' forty points observe, a prior of one point's worth moves it by
+    /// millimetres. The result's information stays the fit's own.
+    #[test]
+    fn a_prior_holds_what_the_fit_observes_weakly_and_yields_where_it_observes_well() {
+        let walls = (0..40).map(|i| {
+            let y = if i % 2 == 0 { 1.0 } else { -1.0 };
+            Constraint {
+                p_in_robot: Vec2::new(-2.0 + 0.2 * (i / 2) as f64, y),
+                q_in_map: Vec2::new(0.0, y),
+                normal: Vec2::Y,
+            }
+        });
+        let frame = [0.5, -0.5].map(|y| Constraint {
+            p_in_robot: Vec2::new(2.0, y),
+            q_in_map: Vec2::new(2.0, 0.0),
+            normal: Vec2::X,
+        });
+        let constraints: Vec<Constraint> = walls.chain(frame).collect();
+        let params = AlignParams::default();
+        let icp = |prior: Option<&PosePrior>, anchor: Pose2| {
+            run_icp(
+                Pose2::new(0.1, 0.05, 0.0),
+                anchor,
+                prior,
+                &params,
+                |_, _, out| out.extend_from_slice(&constraints),
+            )
+        };
+        let free = icp(None, Pose2::IDENTITY);
+        let at = free.map_from_robot;
+        assert!(at.x_m.abs() < 0.01 && at.y_m.abs() < 0.01, "{at:?}");
+        assert!(!free.weighed_prior);
+        let prior = PosePrior {
+            pose: Pose2::new(0.3, 0.2, 0.0),
+            information: DMat3::from_diagonal(DVec3::new(1000.0, 1.0, 0.0)),
+        };
+        let held = icp(Some(&prior), prior.pose);
+        let at = held.map_from_robot;
+        assert!((at.x_m - 0.3).abs() < 0.02 && at.y_m.abs() < 0.02, "{at:?}");
+        assert!(held.weighed_prior);
+        assert!(held.translation_information.weakest < 5.0, "{held:?}");
+    }
 
     #[test]
     fn translation_information_names_a_corridor_axis() {

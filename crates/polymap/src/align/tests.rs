@@ -28,7 +28,7 @@ fn assert_recovers(method: AlignMethod, offset: Pose2) {
                     .iter()
                     .map(|e| e.segment)
                     .collect();
-            align_endpoints(&segs, &index, &world, guess, guess, &params)
+            align_endpoints(&segs, &index, &world, guess, guess, None, &params)
         }
     };
     let e = truth.between(&r.map_from_robot);
@@ -157,7 +157,8 @@ fn loose_points_observe_a_step_along_a_corridor() {
     let walls_only = align_points(&points, &map, last, last, &params);
     assert!(walls_only.weak_directions > 0, "{walls_only:?}");
     assert!(walls_only.map_from_robot.x_m.abs() < 0.01, "{walls_only:?}");
-    let with_loose = align_points_and_loose(&points, &map, Some(&targets), last, last, &params);
+    let with_loose =
+        align_points_and_loose(&points, &map, Some(&targets), last, last, None, &params);
     let e = truth.between(&with_loose.map_from_robot);
     assert_eq!(with_loose.weak_directions, 0, "{with_loose:?}");
     assert!(
@@ -193,7 +194,7 @@ fn loose_points_on_a_wall_say_nothing_along_it() {
     let points = thin_points(&cast(&walls, &truth), 0.05);
     let anchor = Pose2::new(0.05, 0.0, 0.0);
     let params = AlignParams::default();
-    let r = align_points_and_loose(&points, &map, Some(&targets), anchor, anchor, &params);
+    let r = align_points_and_loose(&points, &map, Some(&targets), anchor, anchor, None, &params);
     assert!(r.weak_directions > 0, "{r:?}");
     assert!((r.map_from_robot.x_m - anchor.x_m).abs() < 1e-6, "{r:?}");
     assert!((r.map_from_robot.y_m - truth.y_m).abs() < 0.01, "{r:?}");
@@ -215,6 +216,7 @@ fn loose_points_on_a_wall_say_nothing_along_it() {
         Some(&targets),
         Pose2::IDENTITY,
         Pose2::IDENTITY,
+        None,
         &params,
     );
     assert_eq!(none.correspondences, 0, "{none:?}");

@@ -5,7 +5,14 @@
 //! ([`TranslationInformation::pose`]). The motion prior is one of two:
 //!
 //! - **the odometry's step** ([`odometry_information`]), with an error that grows with the
-//!   distance driven and the turn, over translation and heading;
+//!   distance driven and the turn, over translation and heading. It is weighed inside ICP
+//!   ([`odometry_prior`], `align::PosePrior`): the pose the strategy chose is refined by ICP
+//!   minimizing the fit plus the prior, so that along a direction the scan observes by a few
+//!   points ICP does not first slide to the nearest pose the map's ends or a bend's chords pull
+//!   it to. Fused after ICP instead, the fit's information at that pose (which counts the pull
+//!   as evidence) outweighed or contradicted the odometry there: the simulated curved hallway
+//!   ended 2.1–2.5 m off with odometry read without fault. Only where the weighed pose lies
+//!   beyond the odometry's spread does the fit keep its own pose, which is then fused below;
 //! - **without odometry, the previous pose moved by the speed last observed**
 //!   ([`constant_velocity_information`]), spread as far as a robot's acceleration takes it from
 //!   constant velocity in the time since the last scan and since its speed was last observed;
@@ -18,7 +25,9 @@
 //! a few points, whose pull is more often the map's end or a chord's kink than the robot's
 //! motion. At one scan a second the constant-velocity prior spreads over half a metre and tells
 //! the fit next to nothing. A prior the fit contradicts where the fit is sure (a slipping wheel)
-//! is not fused at all.
+//! is not fused at all. Without odometry the prior is fused after ICP: weighed inside it, the
+//! constant-velocity prior mended the sparse logs but pushed a robot that stops in a corridor
+//! on (`docs/decisions/2026-12-03-motion-prior-in-icp-measured.md`).
 //!
 //! [`TranslationInformation::pose`]: crate::align::TranslationInformation::pose
 
@@ -28,7 +37,7 @@ use super::params::{
     FIT_VARIANCE_M2, ODOMETRY_FLOOR_M, ODOMETRY_PER_M, ODOMETRY_TURN_FLOOR_DEG,
     ODOMETRY_TURN_PER_M_DEG, ODOMETRY_TURN_SHARE, PRIOR_ACCEL_M_S2, PRIOR_FLOOR_M,
 };
-use crate::align::TranslationInformation;
+use crate::align::{PosePrior, TranslationInformation};
 use crate::geometry::{Pose2, normalize_angle_rad};
 
 /// The prior moves a fit only where its information reaches this share of the fit's along the
@@ -68,6 +77,17 @@ fn odometry_information(step: &Pose2) -> DMat3 {
         1.0 / (spread_m * spread_m),
         1.0 / (turn_rad * turn_rad),
     ))
+}
+
+/// The odometry's step as the prior ICP weighs with the fit ([`PosePrior`]): the guess
+/// (map frame, the previous pose moved by `step`) with [`odometry_information`] in the fit's
+/// units (the information per m² times [`FIT_VARIANCE_M2`], the variance one weighted point
+/// is counted at).
+pub(super) fn odometry_prior(guess: Pose2, step: &Pose2) -> PosePrior {
+    PosePrior {
+        pose: guess,
+        information: odometry_information(step) * FIT_VARIANCE_M2,
+    }
 }
 
 /// Whether `pose` (map frame) lies where the robot could be, after the odometry read a step of

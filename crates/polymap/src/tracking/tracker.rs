@@ -4,14 +4,14 @@
 //! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
-use super::estimator::{MotionModel, fuse};
+use super::estimator::{MotionModel, fuse, odometry_prior};
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
 use super::strategy::{TrackConfig, TrackInput, track_scan};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict};
-use crate::align::{AlignParams, AlignResult, thin_points};
+use crate::align::{AlignParams, AlignResult, PosePrior, thin_points};
 use crate::geometry::Pose2;
 use crate::map::GlobalMap;
 use crate::scan::PreparedScan;
@@ -119,7 +119,15 @@ impl Tracker {
     /// into the state (its pose, speed, loose points, the summary).
     pub fn track(&mut self, at: ScanNumber, scan: &PreparedScan, map: &GlobalMap) -> TrackedScan {
         let prior = self.prior(scan);
-        let (align, tracking) = self.align(scan, map, &prior);
+        // With odometry, the pose the strategy finds is weighed with the odometry's step
+        // (`Attempt::weighed`); a pose already weighed is not fused again below.
+        let icp_prior = match self.starts.motion_prior {
+            MotionPrior::Odometry => prior.odometry_step,
+            _ => None,
+        }
+        .map(|step| odometry_prior(prior.guess, &step));
+        let (align, tracking) = self.align(scan, map, &prior, icp_prior);
+        let weighed = align.is_some_and(|a| a.weighed_prior);
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
         // A lost scan keeps its (poor) fit, the best guess there is, but stays out of the map.
@@ -128,9 +136,10 @@ impl Tracker {
             false => prior.anchor,
         };
         let mut pose = align.map_or(fallback, |a| a.map_from_robot);
-        // The fit is fused with the motion prior: the odometry's step, or without odometry the
-        // constant-velocity prediction where the stamps time it.
-        let fusable = tracking.verdict != Verdict::Lost && !map.is_empty();
+        // The fit is fused with the motion prior it has not weighed yet: the odometry's step
+        // the fit contradicted, or without odometry the constant-velocity prediction where the
+        // stamps time it.
+        let fusable = tracking.verdict != Verdict::Lost && !map.is_empty() && !weighed;
         let motion = match self.starts.motion_prior {
             MotionPrior::Odometry => prior
                 .odometry_step
@@ -418,12 +427,14 @@ impl Tracker {
 
     /// The pose of the scan in `map` and the verdict on it, from [`track_scan`] with the
     /// tracker's state and the motion prior's poses (and the log's odometry as a witness of
-    /// the step); the pose is `None` when there is nothing to align to.
+    /// the step), the pose chosen weighed with `icp_prior`; the pose is `None` when there is
+    /// nothing to align to.
     fn align(
         &self,
         scan: &PreparedScan,
         map: &GlobalMap,
         prior: &Prior,
+        icp_prior: Option<PosePrior>,
     ) -> (Option<AlignResult>, Tracking) {
         let Prior {
             guess,
@@ -465,6 +476,7 @@ impl Tracker {
             lost_streak: self.lost_streak,
             odometry_witness: witness,
             odometry_step,
+            icp_prior,
         };
         let config = TrackConfig {
             align: &self.align,

@@ -276,6 +276,7 @@ mod tests {
                 weakest_deg: 0.0,
                 ..Default::default()
             },
+            weighed_prior: false,
         };
         assert_eq!(verdict(Some(&r), 100, false, &p).verdict, Verdict::Ok);
         r.weak_directions = 1;

@@ -323,6 +323,7 @@ mod tests {
                 weakest_deg: 0.0,
                 ..Default::default()
             },
+            weighed_prior: false,
         };
         assert!(!should_search(
             &anchor,

@@ -9,7 +9,7 @@ use super::{
     better,
 };
 use crate::align::{
-    AlignMethod, AlignParams, AlignResult, PointTargets, SearchWindow, SegmentLookup,
+    AlignMethod, AlignParams, AlignResult, PointTargets, PosePrior, SearchWindow, SegmentLookup,
     align_endpoints, align_points_and_loose, align_points_past_ends, bounds, fit_score,
     fit_score_above, rotation_search, score_sample,
 };
@@ -212,11 +212,33 @@ impl Attempt<'_> {
     /// One ICP run from `start` with the configured correspondences; `near` are the map
     /// segments near the scan for endpoint ICP (unused by point-to-segment ICP).
     pub(super) fn run(&self, near: &[Segment], start: Pose2) -> AlignResult {
+        self.run_with(near, start, None)
+    }
+
+    /// The pose `result` found, weighed with the motion prior ([`TrackInput::icp_prior`]): ICP
+    /// from it minimizing the fit plus the prior. `None` without a prior, or where the pose so
+    /// found still lies beyond the odometry's spread ([`odometry_contradicts`]): the fit
+    /// insists on a motion the odometry cannot explain (a slipping or stalled wheel, or a
+    /// candidate that stood against the odometry and won), and keeps its own pose.
+    pub(super) fn weighed(&self, result: &AlignResult) -> Option<AlignResult> {
+        let (input, prior) = (self.input, self.input.icp_prior.as_ref()?);
+        let start = result.map_from_robot;
+        let near = match self.config.align.method {
+            AlignMethod::PointToSegment => Vec::new(),
+            AlignMethod::Endpoints => segments_near(input, &start, self.config.align)?,
+        };
+        let held = self.run_with(&near, start, Some(prior));
+        let step = input.odometry_step?;
+        (!odometry_contradicts(&input.guess, &held.map_from_robot, &step)).then_some(held)
+    }
+
+    fn run_with(&self, near: &[Segment], start: Pose2, prior: Option<&PosePrior>) -> AlignResult {
         let (input, params) = (self.input, self.config.align);
         let anchor = input.unobserved_to;
         match params.method {
             AlignMethod::PointToSegment => {
-                align_points_and_loose(self.points, input.map, self.targets, start, anchor, params)
+                let (points, targets) = (self.points, self.targets);
+                align_points_and_loose(points, input.map, targets, start, anchor, prior, params)
             }
             AlignMethod::Endpoints => align_endpoints(
                 input.segments_in_robot,
@@ -224,6 +246,7 @@ impl Attempt<'_> {
                 near,
                 start,
                 anchor,
+                prior,
                 params,
             ),
         }
@@ -345,6 +368,7 @@ impl Attempt<'_> {
             self.targets,
             result.map_from_robot,
             input.unobserved_to,
+            None,
             params,
         );
         (free.weak_directions > 0 && free.weak_directions < 3).then_some(free)

@@ -91,6 +91,7 @@ fn with_attempt_starts<R>(
         lost_streak,
         odometry_witness: None,
         odometry_step: None,
+        icp_prior: None,
     };
     let align = AlignParams {
         method,
@@ -1342,6 +1343,7 @@ fn a_distinct_pose_fitting_nearly_as_well_makes_the_scan_ambiguous() {
         weak_directions,
         weak_direction_deg: None,
         translation_information: Default::default(),
+        weighed_prior: false,
     };
     let kept = fit(0.0, 100, 0);
     assert!(fits_nearly_as_well(&fit(0.6, 96, 0), &kept, &tracking));
