@@ -198,9 +198,9 @@ fn a_point_by_a_faces_end_does_not_hold_the_robot_in_the_ring() {
 }
 
 /// The ring's whole run with clean odometry, metres. Along its bare stretches ICP, held by a
-/// few points, pulls the pose where the map ends; the odometry's step, fused with the fit in
-/// information form (`tracking/estimator.rs`), holds it: 0.06 m fused, 0.15 m (0.14–0.19 over
-/// seeds 1–5) when the fit's pose was taken as it came.
+/// few points, pulls the pose where the map ends; the odometry's step, weighed with the fit in
+/// information form inside ICP (`tracking/estimator.rs`), holds it: 0.06 m, 0.15 m (0.14–0.19
+/// over seeds 1–5) when the fit's pose was taken as it came.
 const RING_ODOMETRY_ATE_M: f64 = 0.1;
 
 #[test]

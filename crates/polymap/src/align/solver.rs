@@ -36,10 +36,13 @@ impl Constraint {
 }
 
 /// A motion prior ICP weighs with the fit at every step: the pose it predicts (map frame) and
-/// its information over (x, y, θ) in the fit's own units (one fully weighted point-to-line
-/// correspondence adds up to 1 along its normal; 1/m², 1/(m·rad), 1/rad²). ICP then ends at the
-/// pose that best agrees with both, not at the nearest pose that fits the map alone: along a
-/// direction the scan observes by a few points, the prior's information outweighs them.
+/// its information over (x, y, θ) in the fit's own units, those of the normal equations, where
+/// one fully weighted point-to-line correspondence adds up to 1 along its normal (a physical
+/// information in 1/m², 1/(m·rad), 1/rad² times the variance one weighted point is counted
+/// at). ICP then ends at the pose that best agrees with both, not at the nearest pose that fits
+/// the map alone: along a direction the scan observes by a few points, the prior's information
+/// outweighs them. Give ICP the prior's pose as its anchor too: along a direction the fit
+/// cannot observe at all, the result is put on the anchor, where the prior would have held it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PosePrior {
     /// The pose the prior predicts, map frame.

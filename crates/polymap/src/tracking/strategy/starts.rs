@@ -222,13 +222,16 @@ impl Attempt<'_> {
     /// candidate that stood against the odometry and won), and keeps its own pose.
     pub(super) fn weighed(&self, result: &AlignResult) -> Option<AlignResult> {
         let (input, prior) = (self.input, self.input.icp_prior.as_ref()?);
+        let step = input.odometry_step?;
+        // Along a direction the fit cannot observe, ICP puts the pose on its anchor: the
+        // odometry's guess, the prior's own pose.
+        debug_assert_eq!(input.unobserved_to, prior.pose);
         let start = result.map_from_robot;
         let near = match self.config.align.method {
             AlignMethod::PointToSegment => Vec::new(),
             AlignMethod::Endpoints => segments_near(input, &start, self.config.align)?,
         };
         let held = self.run_with(&near, start, Some(prior));
-        let step = input.odometry_step?;
         (!odometry_contradicts(&input.guess, &held.map_from_robot, &step)).then_some(held)
     }
 
