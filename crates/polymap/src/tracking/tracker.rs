@@ -4,14 +4,14 @@
 //! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
-use super::estimator::{MotionModel, fuse, odometry_prior};
+use super::estimator::{MotionModel, fuse};
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
 use super::strategy::{TrackConfig, TrackInput, track_scan};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict};
-use crate::align::{AlignParams, AlignResult, PosePrior, thin_points};
+use crate::align::{AlignParams, AlignResult, thin_points};
 use crate::geometry::Pose2;
 use crate::map::GlobalMap;
 use crate::scan::PreparedScan;
@@ -121,12 +121,7 @@ impl Tracker {
         let prior = self.prior(scan);
         // With odometry, the pose the strategy finds is weighed with the odometry's step
         // (`Attempt::weighed`); a pose already weighed is not fused again below.
-        let icp_prior = match self.starts.motion_prior {
-            MotionPrior::Odometry => prior.odometry_step,
-            _ => None,
-        }
-        .map(|step| odometry_prior(prior.guess, &step));
-        let (align, tracking) = self.align(scan, map, &prior, icp_prior);
+        let (align, tracking) = self.align(scan, map, &prior);
         let weighed = align.is_some_and(|a| a.weighed_prior);
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
@@ -427,14 +422,12 @@ impl Tracker {
 
     /// The pose of the scan in `map` and the verdict on it, from [`track_scan`] with the
     /// tracker's state and the motion prior's poses (and the log's odometry as a witness of
-    /// the step), the pose chosen weighed with `icp_prior`; the pose is `None` when there is
-    /// nothing to align to.
+    /// the step); the pose is `None` when there is nothing to align to.
     fn align(
         &self,
         scan: &PreparedScan,
         map: &GlobalMap,
         prior: &Prior,
-        icp_prior: Option<PosePrior>,
     ) -> (Option<AlignResult>, Tracking) {
         let Prior {
             guess,
@@ -476,7 +469,6 @@ impl Tracker {
             lost_streak: self.lost_streak,
             odometry_witness: witness,
             odometry_step,
-            icp_prior,
         };
         let config = TrackConfig {
             align: &self.align,

@@ -39,19 +39,22 @@ pub(super) fn siblings(values: &[f32], len: usize, level: u32) -> Vec<f32> {
     out
 }
 
-/// The sums of four children over the points at flat indices `flat`, the values of a point
-/// given by `four`: point `i` into lane `i % LANES` of each child (the order of
+/// The sums of `N` children over the points at flat indices `flat`, the values of a point
+/// given by `values`: point `i` into lane `i % LANES` of each child (the order of
 /// [`CorrelativeMatcher::block`]).
 #[inline(always)]
-fn sum_four(flat: &[i32], four: impl Fn(i32) -> [f32; 4]) -> [[f32; LANES]; 4] {
-    let mut lanes = [[0f32; LANES]; 4];
+fn sum_children<const N: usize>(
+    flat: &[i32],
+    values: impl Fn(i32) -> [f32; N],
+) -> [[f32; LANES]; N] {
+    let mut lanes = [[0f32; LANES]; N];
     let mut chunks = flat.chunks_exact(LANES);
     for chunk in &mut chunks {
         // The chunk's values gathered per child, then added lane by lane: the accumulators
         // stay packed in registers.
-        let mut gathered = [[0f32; LANES]; 4];
+        let mut gathered = [[0f32; LANES]; N];
         for (k, &at) in chunk.iter().enumerate() {
-            for (g, v) in gathered.iter_mut().zip(four(at)) {
+            for (g, v) in gathered.iter_mut().zip(values(at)) {
                 g[k] = v;
             }
         }
@@ -62,35 +65,7 @@ fn sum_four(flat: &[i32], four: impl Fn(i32) -> [f32; 4]) -> [[f32; LANES]; 4] {
         }
     }
     for (k, &at) in chunks.remainder().iter().enumerate() {
-        for (lanes, v) in lanes.iter_mut().zip(four(at)) {
-            lanes[k] += v;
-        }
-    }
-    lanes
-}
-
-/// The sums of two children over the points at flat indices `flat`, the values of a point
-/// given by `two`: point `i` into lane `i % LANES` of each child (the order of
-/// [`CorrelativeMatcher::block`]).
-#[inline(always)]
-fn sum_two(flat: &[i32], two: impl Fn(i32) -> [f32; 2]) -> [[f32; LANES]; 2] {
-    let mut lanes = [[0f32; LANES]; 2];
-    let mut chunks = flat.chunks_exact(LANES);
-    for chunk in &mut chunks {
-        let mut gathered = [[0f32; LANES]; 2];
-        for (k, &at) in chunk.iter().enumerate() {
-            for (g, v) in gathered.iter_mut().zip(two(at)) {
-                g[k] = v;
-            }
-        }
-        for (lanes, g) in lanes.iter_mut().zip(gathered) {
-            for (lane, v) in lanes.iter_mut().zip(g) {
-                *lane += v;
-            }
-        }
-    }
-    for (k, &at) in chunks.remainder().iter().enumerate() {
-        for (lanes, v) in lanes.iter_mut().zip(two(at)) {
+        for (lanes, v) in lanes.iter_mut().zip(values(at)) {
             lanes[k] += v;
         }
     }
@@ -181,7 +156,7 @@ impl CorrelativeMatcher {
                 // Each point's four values as two pairs: the point and its right-hand
                 // sibling, the point a block up and its sibling.
                 let mask = pairs.len().wrapping_sub(1);
-                sum_four(rotations.flat(r), |at| {
+                sum_children(rotations.flat(r), |at| {
                     let here = (at as i64 + offset) as usize;
                     let ([a, b], [c, d]) = (pairs[here & mask], pairs[(here + up) & mask]);
                     [a, b, c, d]
@@ -191,7 +166,7 @@ impl CorrelativeMatcher {
                 let values = &self.levels[level as usize];
                 let mask = masked(values);
                 let corners = [0, size as usize, up, up + size as usize];
-                sum_four(rotations.flat(r), |at| {
+                sum_children(rotations.flat(r), |at| {
                     let here = (at as i64 + offset) as usize;
                     corners.map(|c| values[(here + c) & mask])
                 })
@@ -248,14 +223,14 @@ impl CorrelativeMatcher {
         let lanes = match pairs {
             Some(pairs) if across => {
                 let mask = pairs.len().wrapping_sub(1);
-                sum_two(rotations.flat(r), |at| {
+                sum_children(rotations.flat(r), |at| {
                     pairs[(at as i64 + offset) as usize & mask]
                 })
             }
             _ => {
                 let values = &self.levels[level as usize];
                 let mask = masked(values);
-                sum_two(rotations.flat(r), |at| {
+                sum_children(rotations.flat(r), |at| {
                     let here = (at as i64 + offset) as usize;
                     [values[here & mask], values[(here + step) & mask]]
                 })

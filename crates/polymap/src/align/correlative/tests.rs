@@ -306,11 +306,9 @@ fn peaks_are_apart_and_a_high_floor_finds_nothing() {
     assert!(matcher.best(&[], &window, 0.0, &[]).is_none());
 }
 
-/// Four neighbouring blocks summed in one pass carry the bit-identical bounds of four
-/// separate sums, at every level and rotation; blocks reaching past the raster are left to
-/// the sums with checks.
-#[test]
-fn four_blocks_in_one_pass_are_the_four_sums() {
+/// The room's matcher and the rotations of a scan of it within a window around its pose: the
+/// blocks the tests of the one-pass sums compare.
+fn room_search() -> (CorrelativeMatcher, Rotations) {
     let (segs, pillar) = room();
     let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
     let points = scan_of(&segs, &pillar, Pose2::new(0.3, -0.2, 0.2));
@@ -320,6 +318,15 @@ fn four_blocks_in_one_pass_are_the_four_sums() {
         half_theta_rad: 0.3,
     };
     let rotations = matcher.rotations(&points, &window);
+    (matcher, rotations)
+}
+
+/// Four neighbouring blocks summed in one pass carry the bit-identical bounds of four
+/// separate sums, at every level and rotation; blocks reaching past the raster are left to
+/// the sums with checks.
+#[test]
+fn four_blocks_in_one_pass_are_the_four_sums() {
+    let (matcher, rotations) = room_search();
     let (mut summed, mut outside) = (0, 0);
     let len = (matcher.padded_width * matcher.padded_height) as usize;
     for level in 0..=MAX_LEVEL {
@@ -365,15 +372,7 @@ fn four_blocks_in_one_pass_are_the_four_sums() {
 /// beside their siblings'; blocks reaching past the raster are left to the sums with checks.
 #[test]
 fn two_blocks_in_one_pass_are_the_two_sums() {
-    let (segs, pillar) = room();
-    let matcher = CorrelativeMatcher::new(ScoreRaster::of(&segs, &pillar, 0.1, 0.2));
-    let points = scan_of(&segs, &pillar, Pose2::new(0.3, -0.2, 0.2));
-    let window = SearchWindow {
-        center: Pose2::new(0.1, 0.1, 0.1),
-        half_xy_m: 1.0,
-        half_theta_rad: 0.3,
-    };
-    let rotations = matcher.rotations(&points, &window);
+    let (matcher, rotations) = room_search();
     let (mut summed, mut outside) = (0, 0);
     let len = (matcher.padded_width * matcher.padded_height) as usize;
     for level in 0..=MAX_LEVEL {

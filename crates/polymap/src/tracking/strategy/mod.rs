@@ -97,7 +97,7 @@ use super::params::{MapperParams, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict, verdict};
 use super::window::WindowMatch;
-use crate::align::{AlignMethod, AlignParams, AlignResult, PointTargets, PosePrior, thin_points};
+use crate::align::{AlignMethod, AlignParams, AlignResult, PointTargets, thin_points};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
 use starts::loose_targets;
@@ -153,10 +153,6 @@ pub struct TrackInput<'a> {
     /// pose moved by it, and its spread (the motion prior's, `tracking/estimator.rs`) bounds
     /// where the robot may be without the odometry having failed.
     pub odometry_step: Option<Pose2>,
-    /// The motion prior the pose chosen by the fit is weighed with at the end, map frame
-    /// (`Attempt::weighed`): with the odometry prior, the odometry's step in information form
-    /// (`tracking/estimator.rs`).
-    pub icp_prior: Option<PosePrior>,
 }
 
 /// The parameters [`track_scan`] follows: ICP's, tracking's, and the start policy of `[mapper]`

@@ -14,7 +14,7 @@ use crate::align::{
     fit_score_above, rotation_search, score_sample,
 };
 use crate::geometry::{Pose2, Segment, Vec2};
-use crate::tracking::estimator::odometry_contradicts;
+use crate::tracking::estimator::{odometry_contradicts, odometry_prior};
 use crate::tracking::params::MotionPrior;
 use crate::tracking::params::START_SCORE_MARGIN;
 use crate::tracking::recent::LOOSE_OFF_MAP_M;
@@ -215,23 +215,25 @@ impl Attempt<'_> {
         self.run_with(near, start, None)
     }
 
-    /// The pose `result` found, weighed with the motion prior ([`TrackInput::icp_prior`]): ICP
-    /// from it minimizing the fit plus the prior. `None` without a prior, or where the pose so
-    /// found still lies beyond the odometry's spread ([`odometry_contradicts`]): the fit
-    /// insists on a motion the odometry cannot explain (a slipping or stalled wheel, or a
-    /// candidate that stood against the odometry and won), and keeps its own pose.
+    /// The pose `result` found, weighed with the odometry's step ([`odometry_prior`]): ICP
+    /// from it minimizing the fit plus the prior. `None` without the odometry's step
+    /// ([`TrackInput::odometry_step`]), or where the pose so found still lies beyond the
+    /// odometry's spread ([`odometry_contradicts`]): the fit insists on a motion the odometry
+    /// cannot explain (a slipping or stalled wheel, or a candidate that stood against the
+    /// odometry and won), and keeps its own pose.
     pub(super) fn weighed(&self, result: &AlignResult) -> Option<AlignResult> {
-        let (input, prior) = (self.input, self.input.icp_prior.as_ref()?);
+        let input = self.input;
         let step = input.odometry_step?;
-        // Along a direction the fit cannot observe, ICP puts the pose on its anchor: the
-        // odometry's guess, the prior's own pose.
+        let prior = odometry_prior(input.guess, &step);
+        // Along a direction the fit cannot observe, ICP puts the pose on its anchor: with
+        // odometry, its guess, the prior's own pose.
         debug_assert_eq!(input.unobserved_to, prior.pose);
         let start = result.map_from_robot;
         let near = match self.config.align.method {
             AlignMethod::PointToSegment => Vec::new(),
             AlignMethod::Endpoints => segments_near(input, &start, self.config.align)?,
         };
-        let held = self.run_with(&near, start, Some(prior));
+        let held = self.run_with(&near, start, Some(&prior));
         (!odometry_contradicts(&input.guess, &held.map_from_robot, &step)).then_some(held)
     }
 

@@ -91,7 +91,6 @@ fn with_attempt_starts<R>(
         lost_streak,
         odometry_witness: None,
         odometry_step: None,
-        icp_prior: None,
     };
     let align = AlignParams {
         method,
