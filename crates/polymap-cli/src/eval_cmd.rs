@@ -6,7 +6,8 @@ use anyhow::{Context, Result, bail};
 use polymap::geometry::{Pose2, Segment};
 use polymap::scan::RangeScan;
 use polymap_eval::map_quality::{
-    PointFitParams, TrueWall, WallParams, align_map_to_walls, map_fit_to_points, map_vs_walls,
+    DoubledParams, PointFitParams, TrueWall, WallParams, align_map_to_walls, doubled_walls,
+    map_fit_to_points, map_vs_walls,
 };
 use polymap_eval::relation_error::{RelationParams, evaluate_relations};
 use polymap_eval::relations::read_relations;
@@ -85,7 +86,10 @@ pub fn run(a: &EvalArgs) -> Result<()> {
             json,
         } => {
             let map = map_segments(&run.join("map.json"))?;
-            let mut out = json!({ "segments": map.len() });
+            let mut out = json!({
+                "segments": map.len(),
+                "doubled": doubled_walls(&map, &DoubledParams::default()),
+            });
             if let Some(log) = log {
                 let trajectory = read_tum(run.join("trajectory.tum"))?;
                 let scans = read_scans(log)?;
@@ -275,6 +279,18 @@ fn map_table(v: &serde_json::Value) -> String {
         x.as_f64()
             .map_or("-".to_owned(), |f| format!("{:.1}%", 100.0 * f))
     };
+    if let Some(d) = v.get("doubled") {
+        let p = &d["params"];
+        s += &format!(
+            "doubled walls: {} of the map's length ({:.1} of {:.1} m) lies within {} m of another \
+             segment turned at most {}°\n",
+            pct(&d["share"]),
+            d["doubled_length_m"].as_f64().unwrap_or(0.0),
+            d["map_length_m"].as_f64().unwrap_or(0.0),
+            p["within_m"],
+            p["within_deg"],
+        );
+    }
     let m = |x: &serde_json::Value| x.as_f64().map_or("-".to_owned(), |f| format!("{f:.4} m"));
     if let Some(p) = v.get("points") {
         s += &format!(

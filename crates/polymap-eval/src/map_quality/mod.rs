@@ -2,12 +2,15 @@
 //!
 //! - [`map_fit_to_points`]: share of scan points near the map, RMS distance.
 //! - [`map_vs_walls`]: precision and recall of the map against a simulated world's walls.
+//! - [`doubled_walls`]: the share of the map's length drawn twice, side by side.
 //!
-//! Both find nearest segments with the workspace's one index, `polymap::segment_index`.
+//! All find nearest segments with the workspace's one index, `polymap::segment_index`.
 
+mod doubled;
 mod points;
 mod walls;
 
+pub use doubled::{DoubledParams, DoubledWalls, doubled_walls};
 pub use points::{PointFit, PointFitParams, map_fit_to_points};
 pub use walls::{TrueWall, WallParams, WallScore, align_map_to_walls, map_vs_walls};
 

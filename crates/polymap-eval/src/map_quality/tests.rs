@@ -173,3 +173,33 @@ fn degenerate_wall_inputs() {
     assert_eq!(s.precision, Some(0.0));
     assert_eq!(s.recall, None);
 }
+
+#[test]
+fn a_wall_drawn_twice_side_by_side_is_doubled_and_one_continuing_or_crossing_it_is_not() {
+    let d = |map: &[Segment]| doubled_walls(map, &DoubledParams::default());
+    // Two copies 10 cm apart: every sample of both lies beside the other.
+    let twice = d(&[seg(0.0, 0.0, 3.0, 0.0), seg(0.0, 0.1, 3.0, 0.1)]);
+    assert!((twice.share.unwrap() - 1.0).abs() < 1e-9, "{twice:?}");
+    // 20 cm apart (two faces of a thick wall, a corridor): not doubled.
+    assert_eq!(
+        d(&[seg(0.0, 0.0, 3.0, 0.0), seg(0.0, 0.2, 3.0, 0.2)]).doubled_length_m,
+        0.0
+    );
+    // End to end on one line, or crossing at a right angle, or 15° apart: not doubled.
+    assert_eq!(
+        d(&[seg(0.0, 0.0, 3.0, 0.0), seg(3.0, 0.0, 6.0, 0.0)]).doubled_length_m,
+        0.0
+    );
+    assert_eq!(
+        d(&[seg(0.0, 0.0, 3.0, 0.0), seg(1.5, -1.0, 1.5, 1.0)]).doubled_length_m,
+        0.0
+    );
+    let turned = 15f64.to_radians();
+    let (c, s) = (turned.cos(), turned.sin());
+    assert_eq!(
+        d(&[seg(0.0, 0.0, 3.0, 0.0), seg(0.0, 0.0, 3.0 * c, 3.0 * s)]).doubled_length_m,
+        0.0
+    );
+    // Nothing to measure.
+    assert_eq!(d(&[]).share, None);
+}
