@@ -10,10 +10,7 @@ use polymap::geometry::{Segment, Vec2, angle_between_directions_rad};
 use polymap::segment_index::SegmentIndex;
 use serde::Serialize;
 
-use super::{CELL_M, REACH_M};
-
-/// Most samples taken along one segment; bounds the work on absurdly long input.
-const MAX_SAMPLES_PER_SEGMENT: f64 = 1.0e6;
+use super::{CELL_M, REACH_M, coverage};
 
 /// Settings of [`doubled_walls`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -75,41 +72,27 @@ pub fn doubled_walls(segments: &[Segment], params: &DoubledParams) -> DoubledWal
     };
     let within_m = params.within_m.max(0.0);
     let within_rad = params.within_deg.to_radians();
+    let reach = Vec2::splat(within_m);
+    let directions: Vec<f64> = segments.iter().map(Segment::direction_rad).collect();
     let index = SegmentIndex::from_segments(segments, CELL_M, REACH_M);
-    let (mut map_length_m, mut doubled_length_m) = (0.0, 0.0);
-    for (i, s) in segments.iter().enumerate() {
-        let length = s.length();
-        if !length.is_finite() || length <= 0.0 {
-            continue;
-        }
-        map_length_m += length;
-        let pieces = (length / step_m).ceil().clamp(1.0, MAX_SAMPLES_PER_SEGMENT);
-        let piece_m = length / pieces;
-        let direction = s.direction_rad();
-        for k in 0..pieces as usize {
-            let p = s.start + s.vector() * ((k as f64 + 0.5) / pieces);
-            let reach = Vec2::splat(within_m);
-            let mut beside = false;
-            index.for_keys_in_box(p - reach, p + reach, |j| {
-                if beside || j == i {
-                    return;
-                }
-                let other = &segments[j];
-                if angle_between_directions_rad(other.direction_rad(), direction) > within_rad {
-                    return;
-                }
-                let foot = other.project(p);
-                beside = foot.t > 0.0 && foot.t < 1.0 && foot.distance_2 <= within_m * within_m;
-            });
-            if beside {
-                doubled_length_m += piece_m;
+    let c = coverage(segments, step_m, |i, p| {
+        let mut beside = false;
+        index.for_keys_in_box(p - reach, p + reach, |j| {
+            if beside
+                || j == i
+                || angle_between_directions_rad(directions[j], directions[i]) > within_rad
+            {
+                return;
             }
-        }
-    }
+            let foot = segments[j].project(p);
+            beside = foot.t > 0.0 && foot.t < 1.0 && foot.distance_2 <= within_m * within_m;
+        });
+        beside
+    });
     DoubledWalls {
         params: *params,
-        map_length_m,
-        doubled_length_m,
-        share: (map_length_m > 0.0).then(|| doubled_length_m / map_length_m),
+        map_length_m: c.total_m,
+        doubled_length_m: c.covered_m,
+        share: c.ratio(),
     }
 }

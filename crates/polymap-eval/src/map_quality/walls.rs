@@ -3,11 +3,8 @@
 use polymap::geometry::{Pose2, Segment};
 use serde::Serialize;
 
-use super::{CELL_M, REACH_M};
+use super::{CELL_M, MAX_PIECES_PER_SEGMENT, REACH_M, coverage};
 use polymap::segment_index::SegmentIndex;
-
-/// Most sample pieces taken along one segment; bounds the work on absurdly long input.
-const MAX_PIECES_PER_SEGMENT: f64 = 1.0e6;
 
 /// A wall of the true world.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
@@ -137,18 +134,15 @@ pub fn map_vs_walls(
     } else {
         WallParams::default().sample_step_m
     };
-    let on_walls = covered_length(
-        &map_in_world,
-        &SegmentIndex::from_segments(&all_walls, CELL_M, REACH_M),
-        params.tolerance_m,
-        step_m,
-    );
-    let mapped = covered_length(
-        &recall_walls,
-        &SegmentIndex::from_segments(&map_in_world, CELL_M, REACH_M),
-        params.tolerance_m,
-        step_m,
-    );
+    // Length of one set, and how much of it lies within the tolerance of the other.
+    let near = |segments: &[Segment], others: &[Segment]| {
+        let others = SegmentIndex::from_segments(others, CELL_M, REACH_M);
+        coverage(segments, step_m, |_, p| {
+            others.any_within(p, params.tolerance_m)
+        })
+    };
+    let on_walls = near(&map_in_world, &all_walls);
+    let mapped = near(&recall_walls, &map_in_world);
     WallScore {
         params: *params,
         map_length_m: on_walls.total_m,
@@ -158,51 +152,6 @@ pub fn map_vs_walls(
         precision: on_walls.ratio(),
         recall: mapped.ratio(),
     }
-}
-
-/// Length of some segments, and how much of it lies near another set.
-#[derive(Debug, Clone, Copy, Default)]
-struct Coverage {
-    total_m: f64,
-    covered_m: f64,
-}
-
-impl Coverage {
-    fn ratio(&self) -> Option<f64> {
-        (self.total_m > 0.0).then(|| self.covered_m / self.total_m)
-    }
-}
-
-/// Cuts each segment into equal pieces of at most `step_m` and sums the length of the pieces
-/// whose midpoint is within `tolerance_m` of `others`. Non-finite segments are skipped.
-fn covered_length(
-    segments: &[Segment],
-    others: &SegmentIndex<usize>,
-    tolerance_m: f64,
-    step_m: f64,
-) -> Coverage {
-    let mut coverage = Coverage::default();
-    for s in segments.iter().filter(|s| s.is_finite()) {
-        let length_m = s.length();
-        if length_m == 0.0 {
-            continue;
-        }
-        let pieces = (length_m / step_m)
-            .ceil()
-            .clamp(1.0, MAX_PIECES_PER_SEGMENT);
-        let piece_m = length_m / pieces;
-        let near = (0..pieces as usize)
-            .filter(|&k| {
-                others.any_within(
-                    s.start + s.vector() * ((k as f64 + 0.5) / pieces),
-                    tolerance_m,
-                )
-            })
-            .count();
-        coverage.total_m += length_m;
-        coverage.covered_m += near as f64 * piece_m;
-    }
-    coverage
 }
 
 /// The rigid transform `world_from_map` that best lays the map onto the true walls: ICP of
