@@ -639,7 +639,7 @@ fn eval_map_measures_the_shape_after_aligning_and_the_placement_apart() {
     assert!(p > 0.55 && r > 0.55, "{v}");
     assert!(turned.abs() < 2.0, "{v}");
     assert!(v["walls_unaligned"]["precision"].as_f64().unwrap() <= p + 1e-9);
-    // One wall is drawn once: 1.3 % of the map's length lies beside another segment.
+    // Its walls are drawn once: 1.3 % of the map's length lies beside another segment.
     let doubled = v["doubled"]["share"].as_f64().unwrap();
     assert!(doubled < 0.05, "{v}");
 }
