@@ -27,9 +27,7 @@ use crate::live::{LiveSource, RayStore, ScanQueue};
 use crate::msgs::{
     LaserScan, MarkerArray, Odometry, PoseWithCovarianceStamped, RosMessage, TfMessage, Time,
 };
-use crate::outputs::{
-    Status, covariance_xy_yaw, markers_message, pose_message, status_message, tf_message,
-};
+use crate::outputs::{Status, markers_message, pose_message, status_message, tf_message};
 use crate::receive::Receiving;
 
 /// How the node is set up.
@@ -348,10 +346,10 @@ impl Ros2Node {
             .or(frames.scan.clone())
             .unwrap_or_else(|| "base_link".into());
         let map_from_base = update.map_from_robot;
-        let cov = covariance_xy_yaw(&update.diagnostics, 5.0);
+        let cov = &update.diagnostics.pose_covariance;
         let r = self
             .pose
-            .publish(pose_message(&map_frame, time, &map_from_base, &cov));
+            .publish(pose_message(&map_frame, time, &map_from_base, cov));
         self.count(r);
         // map → odom where the odometry names its frame, so that map → odom → base is one
         // chain; else map → base.

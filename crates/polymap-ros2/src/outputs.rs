@@ -2,7 +2,6 @@
 //! tested without DDS).
 
 use polymap::geometry::{Pose2, Segment};
-use polymap::mapper::ScanDiagnostics;
 use polymap_export::pgm::{Cell, OccupancyGrid as Grid};
 use polymap_io::ros::RosTime;
 
@@ -11,13 +10,6 @@ use crate::msgs::{
     Marker, MarkerArray, OccupancyGrid, Point, Pose, PoseWithCovariance, PoseWithCovarianceStamped,
     Quaternion, TfMessage, Time, Transform, TransformStamped, Vector3,
 };
-
-/// Noise of a fit's residuals that no fit claims to beat, metres: keeps a perfect simulated fit
-/// from a zero covariance.
-const MIN_RESIDUAL_M: f64 = 0.01;
-/// The variance given to a direction nothing observed (a lost scan, a bare corridor's axis),
-/// m² or rad²: "unknown", as RViz and the usual consumers read a huge variance.
-pub const UNKNOWN_VARIANCE: f64 = 1e4;
 
 /// The ROS time of a stamp in seconds (the scans' own header stamps, as mapped).
 pub fn ros_time(stamp_s: f64) -> Time {
@@ -56,43 +48,6 @@ pub fn transform_of(p: &Pose2) -> Transform {
 /// The plane part (x, y, yaw) of a ROS pose.
 pub fn plane_pose(p: &Pose) -> Pose2 {
     Pose2::new(p.position.x, p.position.y, p.orientation.yaw())
-}
-
-/// The pose's covariance (x, y, yaw; metres², radians²) from the fit: the translation from
-/// the fit's translation information (its eigenvalues are inlier counts per m² along the
-/// least and best observed directions) scaled by the residuals' variance; the rotation from
-/// the same residuals over the inliers' spread (taken as their typical range, `range_m`). A
-/// direction observed by nothing, and everything of a lost scan, is [`UNKNOWN_VARIANCE`].
-pub fn covariance_xy_yaw(d: &ScanDiagnostics, range_m: f64) -> [[f64; 3]; 3] {
-    let unknown = [
-        [UNKNOWN_VARIANCE, 0.0, 0.0],
-        [0.0, UNKNOWN_VARIANCE, 0.0],
-        [0.0, 0.0, UNKNOWN_VARIANCE],
-    ];
-    let Some(fit) = d.align.as_ref() else {
-        return unknown;
-    };
-    if d.tracking.verdict == polymap::tracking::Verdict::Lost || fit.inliers == 0 {
-        return unknown;
-    }
-    let sigma2 = fit.residual_rms_m.max(MIN_RESIDUAL_M).powi(2);
-    let info = fit.translation_information;
-    let var = |information: f64| {
-        if information > 1e-9 {
-            (sigma2 / information).min(UNKNOWN_VARIANCE)
-        } else {
-            UNKNOWN_VARIANCE
-        }
-    };
-    let (weak, strong) = (var(info.weakest), var(info.strongest));
-    let a = info.weakest_deg.to_radians();
-    let (s, c) = a.sin_cos();
-    // R diag(weak, strong) Rᵀ with the weak axis at angle a.
-    let xx = weak * c * c + strong * s * s;
-    let yy = weak * s * s + strong * c * c;
-    let xy = (weak - strong) * s * c;
-    let yaw = (sigma2 / (range_m.max(0.5).powi(2) * fit.inliers as f64)).min(UNKNOWN_VARIANCE);
-    [[xx, xy, 0.0], [xy, yy, 0.0], [0.0, 0.0, yaw]]
 }
 
 /// A 6×6 ROS covariance (x, y, z, roll, pitch, yaw) from the plane's 3×3; z, roll and pitch
@@ -311,51 +266,17 @@ pub fn status_message(stamp: Time, s: &Status) -> DiagnosticArray {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use polymap::align::{AlignResult, TranslationInformation};
     use polymap::geometry::Vec2;
     use polymap_export::pgm::GridParams;
 
-    fn fit(inliers: usize, residual_rms_m: f64, info: TranslationInformation) -> AlignResult {
-        AlignResult {
-            map_from_robot: Pose2::IDENTITY,
-            iterations: 5,
-            correspondences: inliers,
-            inliers,
-            residual_rms_m,
-            converged: true,
-            weak_directions: 0,
-            weak_direction_deg: None,
-            translation_information: info,
-            weighed_prior: false,
-        }
-    }
-
     #[test]
-    fn a_corridor_fit_is_uncertain_along_the_corridor_only() {
-        let mut d = ScanDiagnostics::default();
-        let info = TranslationInformation {
-            weakest: 0.0,
-            strongest: 400.0,
-            weakest_deg: 0.0,
-            ..Default::default()
-        };
-        d.align = Some(fit(200, 0.02, info));
-        let c = covariance_xy_yaw(&d, 5.0);
-        assert_eq!(c[0][0], UNKNOWN_VARIANCE, "along x, the corridor's axis");
-        assert!(c[1][1] < 1e-5, "across: {}", c[1][1]);
-        assert!(c[2][2] > 0.0 && c[2][2] < 1e-4);
+    fn the_planes_covariance_goes_to_x_y_and_yaw_of_the_six() {
+        let c = [[1.0, 0.5, 0.1], [0.5, 2.0, 0.2], [0.1, 0.2, 3.0]];
         let six = covariance_6(&c);
-        assert_eq!(six.0[0], c[0][0]);
-        assert_eq!(six.0[7], c[1][1]);
-        assert_eq!(six.0[35], c[2][2]);
-    }
-
-    #[test]
-    fn a_lost_scan_has_an_unknown_pose() {
-        let mut d = ScanDiagnostics::default();
-        d.tracking.verdict = polymap::tracking::Verdict::Lost;
-        d.align = Some(fit(10, 0.02, TranslationInformation::default()));
-        assert_eq!(covariance_xy_yaw(&d, 5.0)[1][1], UNKNOWN_VARIANCE);
+        assert_eq!((six.0[0], six.0[1], six.0[5]), (1.0, 0.5, 0.1));
+        assert_eq!((six.0[6], six.0[7], six.0[11]), (0.5, 2.0, 0.2));
+        assert_eq!((six.0[30], six.0[31], six.0[35]), (0.1, 0.2, 3.0));
+        assert_eq!(six.0.iter().filter(|&&v| v != 0.0).count(), 9);
     }
 
     #[test]

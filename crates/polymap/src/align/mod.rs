@@ -56,6 +56,7 @@ pub use point_to_segment::{
 };
 pub use raster::{MAX_RASTER_CELLS, ScoreRaster};
 pub use search::{fit_score, fit_score_above, rotation_search, score_sample, score_sample_n};
+pub(crate) use solver::symmetric_eigen;
 pub use solver::{Constraint, PosePrior};
 
 /// Which correspondences drive ICP.

@@ -24,7 +24,8 @@ use crate::observe::observe_scan;
 use crate::polyline::group_polylines;
 use crate::scan::{PreparedScan, RangeScan};
 use crate::tracking::{
-    Reason, ScanNumber, TrackedScan, Tracker, Tracking, TrackingSummary, Verdict, better, verdict,
+    PoseCovariance, Reason, ScanNumber, TrackedScan, Tracker, Tracking, TrackingSummary, Verdict,
+    better, verdict,
 };
 
 /// What one scan did.
@@ -56,6 +57,10 @@ pub struct ScanDiagnostics {
     /// [`TrackingSummary::off_odometry`], whatever the verdict).
     #[serde(default)]
     pub off_odometry: bool,
+    /// The pose's covariance over (x, y, θ), map frame (m², m·rad, rad²), as tracked
+    /// ([`TrackedScan::covariance`]).
+    #[serde(default)]
+    pub pose_covariance: PoseCovariance,
 }
 
 /// Wall-clock seconds spent in each stage of one [`Mapper::push`].
@@ -438,6 +443,7 @@ impl Mapper {
             enters_map: enters,
             after_gap,
             off_odometry,
+            covariance,
         } = tracked;
         let placed = self.placement == Placement::Placed;
         let aligned = Instant::now();
@@ -514,6 +520,7 @@ impl Mapper {
             tracking,
             after_gap,
             off_odometry,
+            pose_covariance: covariance,
         };
         // A localize run's own tracking takes the scan last (outside the stages' times).
         if let Some(own) = self.own.as_mut() {

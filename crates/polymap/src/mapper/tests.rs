@@ -599,3 +599,39 @@ fn with_odometry_a_stalled_wheel_beside_a_sure_fit_is_tracked_on_the_fit() {
     let (dt, dr) = max_error(&pairs);
     assert!(dt < 0.01 && dr < 0.2, "trajectory error {dt} m, {dr}°");
 }
+
+/// In a bare corridor along x (walls far beyond the laser's 30 m at both ends), a scan's pose
+/// is sure across the corridor and in heading, and along it rests on the motion prior alone:
+/// its covariance says so, larger along x than across by orders of magnitude. The first scan
+/// sets the map frame (no uncertainty); in the room every direction is observed.
+#[test]
+fn the_pose_covariance_is_large_only_along_what_the_scan_does_not_observe() {
+    let walls = [seg(-100.0, -1.0, 100.0, -1.0), seg(-100.0, 1.0, 100.0, 1.0)];
+    let mut mapper = Mapper::new(Config::default());
+    let mut last = None;
+    for i in 0..20 {
+        let truth = Pose2::new(0.05 * i as f64, 0.0, 0.0);
+        let u = mapper.push(&scan_from(&walls, &truth, i as f64 * 0.1));
+        let c = u.diagnostics.pose_covariance;
+        if i == 0 {
+            assert_eq!(c, [[0.0; 3]; 3]);
+        }
+        last = Some(c);
+    }
+    let c = last.unwrap();
+    assert!(
+        c[1][1] < 1e-4 && c[2][2] < 1e-4,
+        "across and heading: {c:?}"
+    );
+    assert!(c[0][0] > 100.0 * c[1][1], "along the corridor: {c:?}");
+    assert_eq!(c[0][1], c[1][0]);
+    let mut in_room = Mapper::new(Config::default());
+    let mut worst = 0.0f64;
+    for i in 0..10 {
+        let truth = Pose2::new(0.05 * i as f64, 0.0, 0.0);
+        let u = in_room.push(&scan_from(&room(), &truth, i as f64 * 0.1));
+        let c = u.diagnostics.pose_covariance;
+        worst = worst.max(c[0][0]).max(c[1][1]);
+    }
+    assert!(worst < 1e-4, "the room observes every direction: {worst}");
+}

@@ -29,6 +29,10 @@
 //! constant-velocity prior mended the sparse logs but pushed a robot that stops in a corridor
 //! on (`docs/decisions/2026-12-03-motion-prior-in-icp-measured.md`).
 //!
+//! The information the pose rests on (the fit's, with the prior's where it was fused or weighed)
+//! gives its covariance ([`covariance_of`]): what a consumer of the pose (a ROS
+//! `PoseWithCovarianceStamped`, `diagnostics.jsonl`) learns of how far to trust each direction.
+//!
 //! [`TranslationInformation::pose`]: crate::align::TranslationInformation::pose
 
 use glam::{DMat3, DVec3};
@@ -37,8 +41,60 @@ use super::params::{
     FIT_VARIANCE_M2, ODOMETRY_FLOOR_M, ODOMETRY_PER_M, ODOMETRY_TURN_FLOOR_DEG,
     ODOMETRY_TURN_PER_M_DEG, ODOMETRY_TURN_SHARE, PRIOR_ACCEL_M_S2, PRIOR_FLOOR_M,
 };
-use crate::align::{PosePrior, TranslationInformation};
+use crate::align::{PosePrior, TranslationInformation, symmetric_eigen};
 use crate::geometry::{Pose2, normalize_angle_rad};
+
+/// The variance of a direction nothing observed (a lost scan, a bare corridor's axis without a
+/// motion prior), m² or rad²: "unknown", as the usual consumers of a ROS covariance read a huge
+/// variance.
+pub const UNKNOWN_VARIANCE: f64 = 1e4;
+
+/// A pose's covariance over (x, y, θ), map frame, row-major: m², m·rad, rad².
+pub type PoseCovariance = [[f64; 3]; 3];
+
+/// The covariance of a pose that rests on `information` (over (x, y, θ), map frame, 1/m²,
+/// 1/(m·rad), 1/rad²): its inverse, each direction whose variance would exceed
+/// [`UNKNOWN_VARIANCE`] (or is not finite) held at it.
+pub fn covariance_of(information: &DMat3) -> PoseCovariance {
+    if !information.is_finite() {
+        return unknown_covariance();
+    }
+    let (values, vectors) = symmetric_eigen(*information);
+    let mut c = DMat3::ZERO;
+    for (i, &value) in values.iter().enumerate() {
+        let v = vectors.col(i);
+        let variance = match value > 1.0 / UNKNOWN_VARIANCE {
+            true => 1.0 / value,
+            false => UNKNOWN_VARIANCE,
+        };
+        c += DMat3::from_cols(v * v.x, v * v.y, v * v.z) * variance;
+    }
+    c.transpose().to_cols_array_2d()
+}
+
+/// The covariance of a pose nothing observed: [`UNKNOWN_VARIANCE`] in every direction.
+pub fn unknown_covariance() -> PoseCovariance {
+    let u = UNKNOWN_VARIANCE;
+    [[u, 0.0, 0.0], [0.0, u, 0.0], [0.0, 0.0, u]]
+}
+
+/// The fit's information over (x, y, θ), map frame, in 1/m² (and 1/rad²): ICP's final
+/// correspondences' ([`TranslationInformation::pose`]) over [`FIT_VARIANCE_M2`], the variance
+/// one weighted point is counted at.
+///
+/// [`TranslationInformation::pose`]: crate::align::TranslationInformation::pose
+pub(super) fn fit_information(information: &TranslationInformation) -> DMat3 {
+    let [xx, xy, xr, yy, yr, rr] = information.pose.map(|v| v / FIT_VARIANCE_M2);
+    DMat3::from_cols_array(&[xx, xy, xr, xy, yy, yr, xr, yr, rr])
+}
+
+/// The motion prior's information over (x, y, θ) under `model` (1/m², 1/rad²).
+pub(super) fn prior_information(model: MotionModel) -> DMat3 {
+    match model {
+        MotionModel::ConstantVelocity { dt_s, age_s } => constant_velocity_information(dt_s, age_s),
+        MotionModel::Odometry { step } => odometry_information(&step),
+    }
+}
 
 /// The prior moves a fit only where its information reaches this share of the fit's along the
 /// fit's weakest direction (it then moves the pose by at least a tenth of the way).
@@ -112,6 +168,16 @@ pub(super) enum MotionModel {
     Odometry { step: Pose2 },
 }
 
+/// A pose from the fit and the motion prior ([`fuse`]), with the information it rests on.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct Fused {
+    /// The pose, map frame.
+    pub pose: Pose2,
+    /// The information over (x, y, θ), map frame (1/m², 1/rad²): the fit's, with the prior's
+    /// unless the prior contradicted the fit.
+    pub information: DMat3,
+}
+
 /// The pose that best agrees with the fit (`fit`, map frame, its information `information`,
 /// [`TranslationInformation::pose`]) and the motion prior (`prior`, map frame, spread as
 /// `model` says): the fit where it is observed, the prior in proportion where the fit is weak.
@@ -126,36 +192,45 @@ pub(super) fn fuse(
     information: &TranslationInformation,
     prior: Pose2,
     model: MotionModel,
-) -> Pose2 {
-    let (prior_information, tested) = match model {
-        MotionModel::ConstantVelocity { dt_s, age_s } => {
-            (constant_velocity_information(dt_s, age_s), false)
-        }
-        MotionModel::Odometry { step } => (odometry_information(&step), true),
+) -> Fused {
+    let prior_information = prior_information(model);
+    let tested = matches!(model, MotionModel::Odometry { .. });
+    let fit_information = fit_information(information);
+    let alone = Fused {
+        pose: fit,
+        information: fit_information,
     };
-    // A prior that would move the pose by under a tenth of its distance from the fit even along
-    // the fit's weakest direction leaves the fit alone: millimetres that change nothing but
-    // which later decisions they tip.
-    let along = prior_information.x_axis.x.min(prior_information.y_axis.y);
-    if along < PRIOR_SIGNIFICANT_SHARE * information.weakest / FIT_VARIANCE_M2 {
-        return fit;
-    }
-    let [xx, xy, xr, yy, yr, rr] = information.pose.map(|v| v / FIT_VARIANCE_M2);
-    let fit_information = DMat3::from_cols_array(&[xx, xy, xr, xy, yy, yr, xr, yr, rr]);
     let towards = fit.offset_to(&prior);
     let both = (fit_information + prior_information).inverse();
-    let delta = both * (prior_information * towards);
     // (H_fit⁻¹ + H_prior⁻¹)⁻¹ = H_prior (H_fit + H_prior)⁻¹ H_fit, finite where either is.
     let contradiction = towards.dot(prior_information * (both * (fit_information * towards)));
     let contradicts = tested && (contradiction.is_nan() || contradiction > PRIOR_CONTRADICTS_CHI2);
-    if !delta.is_finite() || contradicts {
-        return fit;
+    if contradicts {
+        return alone;
     }
-    Pose2::new(
-        fit.x_m + delta.x,
-        fit.y_m + delta.y,
-        fit.theta_rad + delta.z,
-    )
+    let rests_on = Fused {
+        pose: fit,
+        information: fit_information + prior_information,
+    };
+    // A prior that would move the pose by under a tenth of its distance from the fit even along
+    // the fit's weakest direction leaves the fit where it is: millimetres that change nothing
+    // but which later decisions they tip (its information still counts).
+    let along = prior_information.x_axis.x.min(prior_information.y_axis.y);
+    if along < PRIOR_SIGNIFICANT_SHARE * information.weakest / FIT_VARIANCE_M2 {
+        return rests_on;
+    }
+    let delta = both * (prior_information * towards);
+    if !delta.is_finite() {
+        return alone;
+    }
+    Fused {
+        pose: Pose2::new(
+            fit.x_m + delta.x,
+            fit.y_m + delta.y,
+            fit.theta_rad + delta.z,
+        ),
+        ..rests_on
+    }
 }
 
 #[cfg(test)]
@@ -236,13 +311,13 @@ mod tests {
         let fit = Pose2::new(0.0, 0.0, 0.0);
         let prior = Pose2::new(0.05, 0.02, 0.01);
         // Ten scans a second, a corridor seen by 100 points a wall, held along by 1 point.
-        let fused = fuse(fit, &corridor(100.0, 1.0), prior, speed(0.1, 0.0));
+        let fused = fuse(fit, &corridor(100.0, 1.0), prior, speed(0.1, 0.0)).pose;
         // Along the corridor the prior's 5 cm nearly all; across it a tenth of its 2 cm at most.
         assert!((fused.x_m - 0.05).abs() < 0.01, "{fused:?}");
         assert!(fused.y_m.abs() < 0.1 * 0.02, "{fused:?}");
         assert_eq!(fused.theta_rad, 0.0);
         // Held along by a door frame's 200 points, the fit stays.
-        let held = fuse(fit, &corridor(100.0, 200.0), prior, speed(0.1, 0.0));
+        let held = fuse(fit, &corridor(100.0, 200.0), prior, speed(0.1, 0.0)).pose;
         assert!(held.x_m.abs() < 0.005, "{held:?}");
     }
 
@@ -253,8 +328,8 @@ mod tests {
         // under a fifth of the way.
         let fit = Pose2::new(0.0, 0.0, 0.0);
         let prior = Pose2::new(0.05, 0.0, 0.0);
-        let fresh = fuse(fit, &corridor(100.0, 5.0), prior, speed(0.1, 0.0));
-        let stale = fuse(fit, &corridor(100.0, 5.0), prior, speed(0.1, 2.0));
+        let fresh = fuse(fit, &corridor(100.0, 5.0), prior, speed(0.1, 0.0)).pose;
+        let stale = fuse(fit, &corridor(100.0, 5.0), prior, speed(0.1, 2.0)).pose;
         assert!(fresh.x_m > 0.025, "{fresh:?}");
         assert!(stale.x_m < 0.01, "{stale:?}");
     }
@@ -263,7 +338,7 @@ mod tests {
     fn at_one_scan_a_second_the_prior_tells_the_fit_next_to_nothing() {
         let fit = Pose2::new(0.0, 0.0, 0.0);
         let prior = Pose2::new(0.5, 0.0, 0.0);
-        let fused = fuse(fit, &corridor(100.0, 1.0), prior, speed(1.0, 0.0));
+        let fused = fuse(fit, &corridor(100.0, 1.0), prior, speed(1.0, 0.0)).pose;
         assert!(fused.x_m < 0.01, "{fused:?}");
     }
 
@@ -278,7 +353,8 @@ mod tests {
             &information,
             step,
             MotionModel::Odometry { step },
-        );
+        )
+        .pose;
         assert!((fused.x_m - 0.05).abs() < 0.002, "{fused:?}");
         assert!((fused.theta_rad - 0.05 / 8.0).abs() < 0.0005, "{fused:?}");
     }
@@ -294,7 +370,7 @@ mod tests {
             pose: [5.0, 0.0, 0.0, 300.0, 0.0, 3000.0],
         };
         let fit = Pose2::new(0.05, 0.0, 0.0);
-        let read = |step: Pose2| fuse(fit, &information, step, MotionModel::Odometry { step });
+        let read = |step: Pose2| fuse(fit, &information, step, MotionModel::Odometry { step }).pose;
         assert_eq!(read(Pose2::new(0.25, 0.0, 0.0)), fit);
         let near = Pose2::new(0.055, 0.0, 0.0);
         let fused = read(near);
@@ -323,8 +399,72 @@ mod tests {
             &information,
             Pose2::new(0.05, 0.0, 0.0),
             speed(0.1, 0.0),
-        );
+        )
+        .pose;
         assert!((fused.x_m - 0.05).abs() < 0.002, "{fused:?}");
         assert!((fused.theta_rad - 0.05 / 8.0).abs() < 0.0005, "{fused:?}");
+    }
+
+    #[test]
+    fn the_covariance_is_the_information_inverted_and_unknown_where_nothing_observed() {
+        // A corridor along x: 100 points a wall, 1 point's worth along it. Alone, the fit leaves
+        // the corridor's axis unknown-ish (0.0008 m² over one point's information) and holds
+        // across it by two hundred points.
+        let fit = corridor(100.0, 1.0);
+        let alone = covariance_of(&fit_information(&fit));
+        assert!((alone[0][0] - FIT_VARIANCE_M2).abs() < 1e-9, "{alone:?}");
+        assert!(
+            (alone[1][1] - FIT_VARIANCE_M2 / 200.0).abs() < 1e-9,
+            "{alone:?}"
+        );
+        assert_eq!(alone[0][1], alone[1][0]);
+        // Not observed at all along it: unknown there, and only there.
+        let bare = covariance_of(&fit_information(&corridor(100.0, 0.0)));
+        assert_eq!(bare[0][0], UNKNOWN_VARIANCE);
+        assert!(bare[1][1] < 1e-4, "{bare:?}");
+        assert_eq!(covariance_of(&DMat3::ZERO), unknown_covariance());
+        assert_eq!(
+            covariance_of(&(DMat3::IDENTITY * f64::NAN)),
+            unknown_covariance()
+        );
+        // Fused with the speed prior at ten scans a second, the pose along the corridor rests
+        // on the prior: its variance is about the prior's (5 mm plus 1 m/s² × 0.1 s × 0.05 s).
+        let fused = fuse(
+            Pose2::IDENTITY,
+            &corridor(100.0, 0.0),
+            Pose2::new(0.05, 0.0, 0.0),
+            speed(0.1, 0.0),
+        );
+        let along = covariance_of(&fused.information)[0][0];
+        let spread_m = PRIOR_FLOOR_M + PRIOR_ACCEL_M_S2 * 0.1 * 0.05;
+        assert!((along - spread_m * spread_m).abs() < 1e-6, "{along}");
+    }
+
+    #[test]
+    fn odometry_the_fit_contradicts_adds_nothing_to_what_the_pose_rests_on() {
+        let information = TranslationInformation {
+            weakest: 5.0,
+            strongest: 300.0,
+            weakest_deg: 0.0,
+            pose: [5.0, 0.0, 0.0, 300.0, 0.0, 3000.0],
+        };
+        let fit = Pose2::new(0.05, 0.0, 0.0);
+        let slipped = Pose2::new(0.25, 0.0, 0.0);
+        let model = MotionModel::Odometry { step: slipped };
+        assert_eq!(
+            fuse(fit, &information, slipped, model).information,
+            fit_information(&information)
+        );
+        let near = Pose2::new(0.055, 0.0, 0.0);
+        let agreed = fuse(
+            fit,
+            &information,
+            near,
+            MotionModel::Odometry { step: near },
+        );
+        assert_eq!(
+            agreed.information,
+            fit_information(&information) + odometry_information(&near)
+        );
     }
 }

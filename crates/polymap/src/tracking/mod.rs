@@ -25,6 +25,7 @@ mod verdict;
 mod window;
 
 pub use corner_seeds::corner_seeds;
+pub use estimator::{PoseCovariance, UNKNOWN_VARIANCE, covariance_of, unknown_covariance};
 pub use params::{
     CORNER_MIN_SEGMENT_M, CORNER_REACH_M, CORNER_RIVAL_BELOW, CORNER_SEEDS, CORNER_WIN_RATIO,
     LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, LOST_WINDOW_GROWTH_M, LOST_WINDOW_MAX_M,

@@ -4,7 +4,10 @@
 //! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
-use super::estimator::{MotionModel, fuse};
+use super::estimator::{
+    MotionModel, PoseCovariance, covariance_of, fit_information, fuse, prior_information,
+    unknown_covariance,
+};
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
@@ -52,6 +55,13 @@ pub struct TrackedScan {
     /// The log's odometry, witnessing without being the prior, contradicts the scan's tracked
     /// step (counted in [`TrackingSummary::off_odometry`], whatever the verdict).
     pub off_odometry: bool,
+    /// The pose's covariance over (x, y, θ), map frame (m², m·rad, rad²), as tracked (before
+    /// any later loop correction): the inverse of the information it rests on, the fit's and
+    /// the motion prior's where that was fused or weighed ([`covariance_of`]); a direction
+    /// nothing observed, and every direction of a lost scan or one with nothing to align to,
+    /// at [`UNKNOWN_VARIANCE`](crate::tracking::UNKNOWN_VARIANCE); zero for the first scan, which
+    /// sets the map frame.
+    pub covariance: PoseCovariance,
 }
 
 /// Tracking from scan to scan: the state the motion prior and the strategy need (the last
@@ -152,10 +162,25 @@ impl Tracker {
             }
             _ => None,
         };
+        // What the pose rests on: the fit's information, with the odometry's where ICP weighed
+        // it, or with the prior's where it is fused below.
+        let mut information = align.map(|a| {
+            let fit = fit_information(&a.translation_information);
+            match (weighed, motion) {
+                (true, Some((_, model))) => fit + prior_information(model),
+                _ => fit,
+            }
+        });
         if let (Some(a), Some((to, model)), true) = (align, motion, fusable) {
-            pose = fuse(pose, &a.translation_information, to, model);
+            let fused = fuse(pose, &a.translation_information, to, model);
+            (pose, information) = (fused.pose, Some(fused.information));
         }
-        self.take(at, scan, &prior, (pose, align, tracking), true)
+        let covariance = match (map.is_empty(), tracking.verdict, information) {
+            (true, _, _) => [[0.0; 3]; 3],
+            (false, Verdict::Lost, _) | (false, _, None) => unknown_covariance(),
+            (false, _, Some(information)) => covariance_of(&information),
+        };
+        self.take(at, scan, &prior, (pose, align, tracking), covariance, true)
     }
 
     /// Takes scan `at` into the state with a pose found elsewhere (map frame): the search that
@@ -172,7 +197,20 @@ impl Tracker {
         placed: bool,
     ) -> TrackedScan {
         let prior = self.prior(scan);
-        self.take(at, scan, &prior, (pose, align, tracking), placed)
+        let covariance = match (align, tracking.verdict) {
+            (Some(a), v) if placed && v != Verdict::Lost => {
+                covariance_of(&fit_information(&a.translation_information))
+            }
+            _ => unknown_covariance(),
+        };
+        self.take(
+            at,
+            scan,
+            &prior,
+            (pose, align, tracking),
+            covariance,
+            placed,
+        )
     }
 
     /// The tracking summary of the run so far.
@@ -231,6 +269,7 @@ impl Tracker {
         scan: &PreparedScan,
         prior: &Prior,
         (pose, align, tracking): (Pose2, Option<AlignResult>, Tracking),
+        covariance: PoseCovariance,
         placed: bool,
     ) -> TrackedScan {
         let (i, t) = (at.run, at.map);
@@ -320,6 +359,7 @@ impl Tracker {
             enters_map,
             after_gap,
             off_odometry,
+            covariance,
         }
     }
 
