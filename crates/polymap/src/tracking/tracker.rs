@@ -5,7 +5,7 @@
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
 use super::estimator::{
-    MotionModel, PoseCovariance, covariance_of, fit_information, fuse, prior_information,
+    MotionModel, PoseCovariance, covariance_of, fuse, prior_information, trusted_fit_information,
     unknown_covariance,
 };
 use super::params::{MapperParams, MotionPrior, TrackParams};
@@ -162,10 +162,13 @@ impl Tracker {
             }
             _ => None,
         };
-        // What the pose rests on: the fit's information, with the odometry's where ICP weighed
-        // it, or with the prior's where it is fused below.
-        let mut information = align.map(|a| {
-            let fit = fit_information(&a.translation_information);
+        // What the pose rests on: the fit's information as far as the verdict trusts it, with
+        // the odometry's where ICP weighed it, or with the prior's where it is fused below.
+        let weak_below = self.tracking.verdict.weak_below_information;
+        let trusted =
+            |a: &AlignResult| trusted_fit_information(&a.translation_information, weak_below);
+        let mut information = align.as_ref().map(|a| {
+            let fit = trusted(a);
             match (weighed, motion) {
                 (true, Some((_, model))) => fit + prior_information(model),
                 _ => fit,
@@ -173,7 +176,13 @@ impl Tracker {
         });
         if let (Some(a), Some((to, model)), true) = (align, motion, fusable) {
             let fused = fuse(pose, &a.translation_information, to, model);
-            (pose, information) = (fused.pose, Some(fused.information));
+            // The covariance from what the verdict trusts of the fit, with the prior where
+            // that was fused.
+            let rests_on = match fused.with_prior {
+                true => trusted(&a) + prior_information(model),
+                false => trusted(&a),
+            };
+            (pose, information) = (fused.pose, Some(rests_on));
         }
         let covariance = match (map.is_empty(), tracking.verdict, information) {
             (true, _, _) => [[0.0; 3]; 3],
@@ -199,7 +208,10 @@ impl Tracker {
         let prior = self.prior(scan);
         let covariance = match (align, tracking.verdict) {
             (Some(a), v) if placed && v != Verdict::Lost => {
-                covariance_of(&fit_information(&a.translation_information))
+                covariance_of(&trusted_fit_information(
+                    &a.translation_information,
+                    self.tracking.verdict.weak_below_information,
+                ))
             }
             _ => unknown_covariance(),
         };
