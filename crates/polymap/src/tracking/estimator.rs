@@ -208,7 +208,9 @@ pub(super) struct Fused {
 /// The fit itself when the prior is too weak to matter, when the information is not finite,
 /// or when odometry contradicts the fit ([`PRIOR_CONTRADICTS_CHI2`]; the speed prior is not
 /// tested: measured, that moved Intel 0.0263 → 0.0278 m, a fit that disagrees with the speed
-/// being more often the wrong one than a robot that changed its speed).
+/// being more often the wrong one than a robot that changed its speed). The pose rests on the
+/// prior too ([`Fused::with_prior`]) unless the prior contradicted the fit or the information
+/// was not finite: a prior too weak to move the pose still counts in its covariance.
 ///
 /// [`TranslationInformation::pose`]: crate::align::TranslationInformation::pose
 pub(super) fn fuse(
