@@ -635,3 +635,29 @@ fn the_pose_covariance_is_large_only_along_what_the_scan_does_not_observe() {
     }
     assert!(worst < 1e-4, "the room observes every direction: {worst}");
 }
+
+/// Along the recessed corridor at 1 m/s and ten scans a second, the steps near a recess observe
+/// the speed; between recesses the pose along the corridor rests on that speed (the prior fused
+/// with a fit that observed it weakly or not at all): its variance there is the prior's, above
+/// the fit's across the corridor and far below "unknown".
+#[test]
+fn along_a_corridor_the_speed_last_observed_holds_the_pose_and_its_covariance() {
+    let walls = recessed_corridor();
+    let mut mapper = Mapper::new(Config::default());
+    let mut held = 0;
+    for i in 0..120 {
+        let truth = Pose2::new(0.1 * i as f64, 0.0, 0.0);
+        let u = mapper.push(&scan_from(&walls, &truth, 0.1 * i as f64));
+        let c = u.diagnostics.pose_covariance;
+        let reason = u.diagnostics.tracking.reason;
+        if i > 20 && matches!(reason, Reason::WeaklyObserved | Reason::Degenerate) {
+            assert!(c[1][1] < 1e-3, "scan {i}: across {c:?}");
+            // The prior's spread at ten scans a second: 5 mm plus 1 m/s² × 0.1 s × (0.05 s and
+            // the time since the speed was observed), a centimetre or a few.
+            if c[0][0] >= 1e-4 && c[0][0] < 1e-2 && c[0][0] > 4.0 * c[1][1] {
+                held += 1;
+            }
+        }
+    }
+    assert!(held > 0, "no weak scan held by the speed prior");
+}

@@ -88,28 +88,51 @@ pub(super) fn fit_information(information: &TranslationInformation) -> DMat3 {
     DMat3::from_cols_array(&[xx, xy, xr, xy, yy, yr, xr, yr, rr])
 }
 
-/// [`fit_information`] as far as the verdict trusts it: where the fit observed its weakest
+/// What the covariance takes from the fit: [`fit_information`] counted at the larger of
+/// [`FIT_VARIANCE_M2`] and the fit's own residuals' mean square `residual_rms_m²` (a poor fit's
+/// points say less), and as far as the verdict trusts it: where the fit observed its weakest
 /// translation direction by under `weak_below` points' worth (`tracking.verdict.
-/// weak_below_information`, the verdict `weakly_observed`), nothing along that direction. A few
-/// points' pull there is more often the map's frontier or one feature matched to its neighbour
-/// than the robot's motion (ACES every 10th scan: a corridor step 0.58 m short on 0.4 points'
-/// worth, whose fit alone said ±4 cm), so the pose's covariance there is the prior's, or unknown.
+/// weak_below_information`, the verdict `weakly_observed`), nothing along that direction, the
+/// rest marginalized over it (what the fit says of the other directions without knowing that
+/// one). A few points' pull there is more often the map's frontier or one feature matched to its
+/// neighbour than the robot's motion (ACES every 10th scan: a corridor step 0.58 m short on 0.4
+/// points' worth, whose fit alone said ±4.5 cm), so the pose's covariance there is the prior's,
+/// or unknown.
 pub(super) fn trusted_fit_information(
     information: &TranslationInformation,
+    residual_rms_m: f64,
     weak_below: f64,
 ) -> DMat3 {
-    let full = fit_information(information);
+    let variance = FIT_VARIANCE_M2.max(residual_rms_m * residual_rms_m);
+    let full = fit_information(information) * (FIT_VARIANCE_M2 / variance);
     if information.weakest >= weak_below {
         return full;
     }
+    // In the frame (u, u⊥, θ) of the weakest axis u: u's row and column out, the rest its
+    // Schur complement.
     let u = information.weakest_axis();
-    let keep = DMat3::IDENTITY
-        - DMat3::from_cols(
-            DVec3::new(u.x * u.x, u.x * u.y, 0.0),
-            DVec3::new(u.x * u.y, u.y * u.y, 0.0),
-            DVec3::ZERO,
-        );
-    keep * full * keep
+    let to_axis = DMat3::from_cols(
+        DVec3::new(u.x, -u.y, 0.0),
+        DVec3::new(u.y, u.x, 0.0),
+        DVec3::Z,
+    );
+    let h = to_axis * full * to_axis.transpose();
+    let huu = h.x_axis.x;
+    let coupling = DVec3::new(0.0, h.x_axis.y, h.x_axis.z);
+    let mut rest = match huu > 0.0 && huu.is_finite() {
+        true => {
+            h - DMat3::from_cols(
+                coupling * coupling.x,
+                coupling * coupling.y,
+                coupling * coupling.z,
+            ) / huu
+        }
+        false => h,
+    };
+    rest.x_axis = DVec3::ZERO;
+    rest.y_axis.x = 0.0;
+    rest.z_axis.x = 0.0;
+    to_axis.transpose() * rest * to_axis
 }
 
 /// The motion prior's information over (x, y, θ) under `model` (1/m², 1/rad²).
@@ -198,7 +221,7 @@ pub(super) struct Fused {
     /// The pose, map frame.
     pub pose: Pose2,
     /// Whether the pose rests on the prior as well as the fit: false where the prior
-    /// contradicted the fit (or their information was not finite).
+    /// contradicted the fit, or where the step towards it was not finite.
     pub with_prior: bool,
 }
 
@@ -209,8 +232,8 @@ pub(super) struct Fused {
 /// or when odometry contradicts the fit ([`PRIOR_CONTRADICTS_CHI2`]; the speed prior is not
 /// tested: measured, that moved Intel 0.0263 → 0.0278 m, a fit that disagrees with the speed
 /// being more often the wrong one than a robot that changed its speed). The pose rests on the
-/// prior too ([`Fused::with_prior`]) unless the prior contradicted the fit or the information
-/// was not finite: a prior too weak to move the pose still counts in its covariance.
+/// prior too ([`Fused::with_prior`]) unless the prior contradicted the fit or the step towards
+/// it was not finite: a prior too weak to move the pose still counts in its covariance.
 ///
 /// [`TranslationInformation::pose`]: crate::align::TranslationInformation::pose
 pub(super) fn fuse(
@@ -468,14 +491,14 @@ mod tests {
         assert!((along - spread_m * spread_m).abs() < 1e-6, "{along}");
         // Observed along it by 1 point's worth, under the verdict's 5: the covariance takes
         // nothing from the fit there (unknown without a prior), and all of it across.
-        let trusted = covariance_of(&trusted_fit_information(&fit, 5.0));
+        let trusted = covariance_of(&trusted_fit_information(&fit, 0.0, 5.0));
         assert_eq!(trusted[0][0], UNKNOWN_VARIANCE);
         assert!(
             (trusted[1][1] - FIT_VARIANCE_M2 / 200.0).abs() < 1e-9,
             "{trusted:?}"
         );
         assert_eq!(
-            trusted_fit_information(&fit, 1.0),
+            trusted_fit_information(&fit, 0.01, 1.0),
             fit_information(&fit),
             "observed by as many points as the verdict asks"
         );
@@ -501,5 +524,41 @@ mod tests {
             MotionModel::Odometry { step: near },
         );
         assert!(agreed.with_prior);
+    }
+
+    #[test]
+    fn the_covariance_of_a_coupled_fit_is_its_inverse_and_a_weak_axis_at_an_angle_leaves_it() {
+        // A fit coupled in every direction (a corridor at 30° seen with a door frame ahead):
+        // the covariance is the matrix's inverse.
+        let pose = [40.0, 12.0, 3.0, 25.0, -4.0, 900.0];
+        let information = TranslationInformation {
+            weakest: 2.0,
+            strongest: 50.0,
+            weakest_deg: 30.0,
+            pose,
+        };
+        let h = fit_information(&information);
+        let c = covariance_of(&h);
+        let inverse = h.inverse().to_cols_array_2d();
+        for (row, want) in c.iter().zip(inverse) {
+            for (got, want) in row.iter().zip(want) {
+                assert!((got - want).abs() < 1e-9 * want.abs().max(1e-9), "{c:?}");
+            }
+        }
+        // Trusted with the verdict's 5: nothing along 30°, and across it what the fit says
+        // without knowing the position along it (the Schur complement over that axis).
+        let trusted = trusted_fit_information(&information, 0.0, 5.0);
+        let u = DVec3::new(30f64.to_radians().cos(), 30f64.to_radians().sin(), 0.0);
+        assert!((trusted * u).length() < 1e-6 * h.x_axis.x, "{trusted:?}");
+        let across = DVec3::new(-u.y, u.x, 0.0);
+        let (hua, huu, haa) = (u.dot(h * across), u.dot(h * u), across.dot(h * across));
+        let want = haa - hua * hua / huu;
+        assert!(
+            (across.dot(trusted * across) - want).abs() < 1e-6 * haa,
+            "{trusted:?}"
+        );
+        // A fit whose residuals are 5 cm says less than one at the counted 2.8 cm.
+        let poor = trusted_fit_information(&information, 0.05, 0.0);
+        assert!((poor.x_axis.x - h.x_axis.x * FIT_VARIANCE_M2 / 0.0025).abs() < 1e-9 * h.x_axis.x);
     }
 }

@@ -165,8 +165,9 @@ impl Tracker {
         // What the pose rests on: the fit's information as far as the verdict trusts it, with
         // the odometry's where ICP weighed it, or with the prior's where it is fused below.
         let weak_below = self.tracking.verdict.weak_below_information;
-        let trusted =
-            |a: &AlignResult| trusted_fit_information(&a.translation_information, weak_below);
+        let trusted = |a: &AlignResult| {
+            trusted_fit_information(&a.translation_information, a.residual_rms_m, weak_below)
+        };
         let mut information = align.as_ref().map(|a| {
             let fit = trusted(a);
             match (weighed, motion) {
@@ -210,6 +211,7 @@ impl Tracker {
             (Some(a), v) if placed && v != Verdict::Lost => {
                 covariance_of(&trusted_fit_information(
                     &a.translation_information,
+                    a.residual_rms_m,
                     self.tracking.verdict.weak_below_information,
                 ))
             }
