@@ -162,29 +162,23 @@ impl Tracker {
             }
             _ => None,
         };
-        // What the pose rests on: the fit's information as far as the verdict trusts it, with
-        // the odometry's where ICP weighed it, or with the prior's where it is fused below.
+        // The pose rests on the prior too where ICP weighed the odometry's step, or where the
+        // prior is fused below and does not contradict the fit.
+        let mut with_prior = weighed;
+        if let (Some(a), Some((to, model)), true) = (align, motion, fusable) {
+            let fused = fuse(pose, &a.translation_information, to, model);
+            (pose, with_prior) = (fused.pose, fused.with_prior);
+        }
+        // Its information: the fit's as far as the verdict trusts it, with the prior's.
         let weak_below = self.tracking.verdict.weak_below_information;
-        let trusted = |a: &AlignResult| {
-            trusted_fit_information(&a.translation_information, a.residual_rms_m, weak_below)
-        };
-        let mut information = align.as_ref().map(|a| {
-            let fit = trusted(a);
-            match (weighed, motion) {
+        let information = align.map(|a| {
+            let fit =
+                trusted_fit_information(&a.translation_information, a.residual_rms_m, weak_below);
+            match (with_prior, motion) {
                 (true, Some((_, model))) => fit + prior_information(model),
                 _ => fit,
             }
         });
-        if let (Some(a), Some((to, model)), true) = (align, motion, fusable) {
-            let fused = fuse(pose, &a.translation_information, to, model);
-            // The covariance from what the verdict trusts of the fit, with the prior where
-            // that was fused.
-            let rests_on = match fused.with_prior {
-                true => trusted(&a) + prior_information(model),
-                false => trusted(&a),
-            };
-            (pose, information) = (fused.pose, Some(rests_on));
-        }
         let covariance = match (map.is_empty(), tracking.verdict, information) {
             (true, _, _) => [[0.0; 3]; 3],
             (false, Verdict::Lost, _) | (false, _, None) => unknown_covariance(),
