@@ -165,6 +165,29 @@ fn constant_velocity_information(dt_s: f64, age_s: f64) -> DMat3 {
     DMat3::from_diagonal(DVec3::new(along, along, 0.0))
 }
 
+/// How far the robot may be from the constant-velocity prediction `dt_s` seconds after the
+/// scan it moves on from, its speed known to `speed_sigma_m_s` (m/s, one standard deviation;
+/// [`ObservedSpeed::weigh`]), metres: the floor, the speed's error over the step, and half a
+/// robot's acceleration over it.
+///
+/// [`ObservedSpeed::weigh`]: super::speed::ObservedSpeed::weigh
+pub(super) fn speed_spread_m(dt_s: f64, speed_sigma_m_s: f64) -> f64 {
+    PRIOR_FLOOR_M + dt_s * (speed_sigma_m_s + 0.5 * PRIOR_ACCEL_M_S2 * dt_s)
+}
+
+/// A pose further from the constant-velocity prediction than this, in the squared distance of
+/// their translations over [`speed_spread_m`] squared, lies where the robot could be only if
+/// its speed changed beyond a robot's acceleration: 13.8 is the 99.9 % point of χ² with two
+/// degrees of freedom (the prediction holds no heading).
+const SPEED_CONTRADICTS_CHI2: f64 = 13.8;
+
+/// Whether `pose` (map frame) lies beyond the constant-velocity prediction `prediction` (map
+/// frame) spread by `spread_m` ([`speed_spread_m`], [`SPEED_CONTRADICTS_CHI2`]).
+pub(super) fn speed_contradicts(prediction: &Pose2, pose: &Pose2, spread_m: f64) -> bool {
+    let d = pose.translation().distance(prediction.translation()) / spread_m;
+    d.is_nan() || d * d > SPEED_CONTRADICTS_CHI2
+}
+
 /// The odometry prior's information over (x, y, θ) (1/m², 1/rad²) for a step the odometry
 /// read as `step` (robot frame of the scan before): its error grows with the distance driven
 /// and the turn, from a floor.
@@ -322,6 +345,26 @@ mod tests {
                 h.x_axis.x, h.y_axis.x, h.z_axis.x, h.y_axis.y, h.z_axis.y, h.z_axis.z,
             ],
         }
+    }
+
+    /// At ten scans a second, a speed known to 0.1 m/s spreads the prediction by 0.02 m: a
+    /// pose 7 cm off (3.5 spreads, χ² 12.25) is within it, one 8 cm off (χ² 16) is not, and
+    /// one 0.84 m behind a robot going 0.15 m a scan is far beyond.
+    #[test]
+    fn a_pose_beyond_the_speeds_spread_contradicts_it() {
+        let spread = speed_spread_m(0.1, 0.1);
+        assert!((spread - 0.02).abs() < 1e-12, "{spread}");
+        let prediction = Pose2::new(3.0, 1.0, 0.4);
+        let at = |dx: f64| Pose2::new(3.0 + dx, 1.0, 1.2);
+        assert!(!speed_contradicts(&prediction, &at(0.07), spread));
+        assert!(speed_contradicts(&prediction, &at(-0.08), spread));
+        assert!(speed_contradicts(&prediction, &at(-0.84), spread));
+        // The heading is the fit's: the prediction holds none.
+        assert!(!speed_contradicts(
+            &prediction,
+            &Pose2::new(3.0, 1.0, -2.0),
+            spread
+        ));
     }
 
     #[test]

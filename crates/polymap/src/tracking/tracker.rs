@@ -5,8 +5,8 @@
 //! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
 use super::estimator::{
-    MotionModel, PoseCovariance, covariance_of, fuse, prior_information, trusted_fit_information,
-    unknown_covariance,
+    MotionModel, PoseCovariance, covariance_of, fuse, prior_information, speed_spread_m,
+    trusted_fit_information, unknown_covariance,
 };
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
@@ -18,7 +18,9 @@ use crate::align::{AlignParams, AlignResult, thin_points};
 use crate::geometry::Pose2;
 use crate::map::GlobalMap;
 use crate::scan::PreparedScan;
-use crate::tracking::params::{LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, WEAK_DIRECTION_VELOCITY};
+use crate::tracking::params::{
+    FIT_VARIANCE_M2, LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, WEAK_DIRECTION_VELOCITY,
+};
 
 /// Where a scan stands in the two numberings of a run: `run` counts this run's scans from 0
 /// (the numbering of [`TrackingSummary`]); `map` counts every scan of the map's runs (a
@@ -294,8 +296,16 @@ impl Tracker {
                 self.recent.push(&last, &pose);
             }
             let step = self.last_pose.map(|last| last.between(&pose));
-            self.observed
-                .record(step, observed && !tracking.corner_won, scan.stamp_s);
+            let dt_s = self.observed.step_dt_s(scan.stamp_s);
+            let observed = observed && !tracking.corner_won;
+            self.observed.record(step, observed, scan.stamp_s);
+            // How well the observed step told its translation: its spread along its weakest
+            // direction, each point counted at its residuals' variance where that is larger.
+            let observed_sigma_m = align.filter(|_| observed && step.is_some()).map(|a| {
+                let per_point_m2 = FIT_VARIANCE_M2.max(a.residual_rms_m * a.residual_rms_m);
+                (per_point_m2 / a.translation_information.weakest.max(f64::MIN_POSITIVE)).sqrt()
+            });
+            self.observed.weigh(observed_sigma_m, dt_s);
             after_gap = self.observed.last_gap_scale() > 1.0;
             if after_gap {
                 self.summary.count_gap(i);
@@ -437,6 +447,17 @@ impl Tracker {
         Some(a.between(&b))
     }
 
+    /// Without the odometry prior, how far the robot may be from the constant-velocity prior's
+    /// pose at a scan stamped `stamp_s` ([`speed_spread_m`]), where the stamps time the step and
+    /// a timed observed step told the speed.
+    fn speed_spread_m(&self, stamp_s: Option<f64>) -> Option<f64> {
+        let on = self.starts.motion_prior == MotionPrior::ConstantVelocity
+            && self.starts.keep_observed_velocity
+            && self.observed.motion().is_some();
+        let dt_s = self.observed.step_dt_s(stamp_s).filter(|_| on)?;
+        Some(speed_spread_m(dt_s, self.observed.speed_sigma_m_s()?))
+    }
+
     /// The constant-velocity step from the last pose to a scan stamped `stamp_s` (robot frame
     /// of the last scan; over a gap's time, [`ObservedSpeed::predicted_step`]), once there are
     /// two poses.
@@ -517,6 +538,7 @@ impl Tracker {
             lost_streak: self.lost_streak,
             odometry_witness: witness,
             odometry_step,
+            speed_spread_m: self.speed_spread_m(scan.stamp_s),
         };
         let config = TrackConfig {
             align: &self.align,

@@ -73,7 +73,7 @@ impl Attempt<'_> {
     /// Whether ICP's pose `searched` is evidence of the step along `axis` that ICP's pose
     /// `result` could not observe: it observes every direction, agrees with `result` in the
     /// directions `result` did observe (across the axis, and the rotation), and fits as many
-    /// points.
+    /// points (by ratio where the speed's spread excludes it: [`Attempt::against_speed`]).
     pub(super) fn evidence_along(
         &self,
         searched: &AlignResult,
@@ -85,6 +85,7 @@ impl Attempt<'_> {
             && searched.translation_information.weakest >= tracking.verdict.weak_below_information
             && agrees_across(searched, result, axis)
             && searched.inliers >= result.inliers
+            && (!self.against_speed(searched, result) || self.wins_by_ratio(searched, result))
     }
 
     /// ICP from poses along `axis` (every [`UNOBSERVED_SEED_STEP_M`] up to

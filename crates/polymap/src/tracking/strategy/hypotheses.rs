@@ -120,11 +120,16 @@ impl Attempt<'_> {
     }
 
     /// Whether `other`, ICP from a search's pose, beats `current`: more inliers by
-    /// `SEARCH_WIN_MARGIN` (plus two), within reach ([`Attempt::within_reach`]).
+    /// `SEARCH_WIN_MARGIN` (plus two), or by ratio where the speed's spread excludes it and
+    /// allows `current` ([`Attempt::against_speed`]); within reach ([`Attempt::within_reach`]).
     pub(super) fn search_pose_wins(&self, other: &AlignResult, current: &AlignResult) -> bool {
-        let margin = SEARCH_WIN_MARGIN;
-        other.inliers as f64 > current.inliers as f64 * (1.0 + margin) + 2.0
-            && self.within_reach(&other.map_from_robot)
+        let wins = match self.against_speed(other, current) {
+            true => self.wins_by_ratio(other, current),
+            false => {
+                other.inliers as f64 > current.inliers as f64 * (1.0 + SEARCH_WIN_MARGIN) + 2.0
+            }
+        };
+        wins && self.within_reach(&other.map_from_robot)
     }
 
     /// Whether `other`, a pose away from the prediction, has `CORNER_WIN_RATIO`

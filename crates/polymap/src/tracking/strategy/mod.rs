@@ -153,6 +153,11 @@ pub struct TrackInput<'a> {
     /// pose moved by it, and its spread (the motion prior's, `tracking/estimator.rs`) bounds
     /// where the robot may be without the odometry having failed.
     pub odometry_step: Option<Pose2>,
+    /// Without the odometry prior, how far the robot may be from the constant-velocity
+    /// prediction ([`TrackInput::unobserved_to`]) unless its speed changed beyond a robot's
+    /// acceleration, metres (`tracking/estimator.rs`, `speed_spread_m`): where the stamps time
+    /// the step and an observed step told the speed.
+    pub speed_spread_m: Option<f64>,
 }
 
 /// The parameters [`track_scan`] follows: ICP's, tracking's, and the start policy of `[mapper]`

@@ -285,7 +285,7 @@ impl Attempt<'_> {
         let evidence = unobserved.is_some_and(|axis| self.evidence_along(&searched, &result, axis));
         // Nor may it lie beyond the robot's reach since the last `ok` scan: after a lost scan
         // the window is the whole circle.
-        let search_won = match evidence {
+        let search_won = match evidence && !self.against_speed(&searched, &result) {
             true => self.within_reach(&searched.map_from_robot),
             false => self.search_pose_wins(&searched, &result),
         };

@@ -91,6 +91,7 @@ fn with_attempt_starts<R>(
         lost_streak,
         odometry_witness: None,
         odometry_step: None,
+        speed_spread_m: None,
     };
     let align = AlignParams {
         method,
@@ -1376,4 +1377,52 @@ fn an_empty_map_starts_the_map() {
     assert!(result.is_none());
     assert_eq!(tracking.reason, Reason::Start);
     assert_eq!(tracking.verdict, Verdict::Ok);
+}
+
+/// Without odometry, a searched or rival pose the speed's spread excludes (a robot going
+/// 0.15 m a scan, its speed observed a few scans before: 5 cm) beats the pose it allows only by
+/// ratio, as against odometry; more inliers by the search's margin do not do (the simulated
+/// ring with a 360° laser every 3rd scan: a pose 0.84 m behind the prediction, fitting a
+/// hallway's box as well, took a scan). Without the spread (stamps that do not time the
+/// steps) the margin decides, as it does for a pose within the spread.
+#[test]
+fn a_pose_the_speed_excludes_beats_the_prediction_only_by_ratio() {
+    let (world, map, truth, guess) = beyond_the_window();
+    let scene = (&world[..], &map, truth, guess, 0);
+    with_attempt(
+        AlignMethod::PointToSegment,
+        scene,
+        &TrackParams::default(),
+        |t| {
+            let n = t.points.len();
+            let r = t.run(&[], guess);
+            let at = |pose: Pose2, inliers: usize| AlignResult {
+                map_from_robot: pose,
+                inliers,
+                ..r
+            };
+            let behind = Pose2::new(guess.x_m - 0.84, guess.y_m, guess.theta_rad);
+            let predicted = at(guess, n / 2);
+            let by_margin = at(behind, n / 2 + n / 10 + 4);
+            let by_ratio = at(
+                behind,
+                (CORNER_WIN_RATIO * (n / 2) as f64 + 2.0).ceil() as usize,
+            );
+            assert!(by_ratio.inliers <= n && by_margin.inliers < by_ratio.inliers);
+            assert!(t.search_pose_wins(&by_margin, &predicted));
+            let input = TrackInput {
+                speed_spread_m: Some(0.05),
+                ..*t.input
+            };
+            let t = Attempt {
+                input: &input,
+                ..*t
+            };
+            assert!(t.against_speed(&by_margin, &predicted));
+            assert!(!t.search_pose_wins(&by_margin, &predicted));
+            assert!(t.search_pose_wins(&by_ratio, &predicted));
+            let near = Pose2::new(guess.x_m - 0.12, guess.y_m, guess.theta_rad);
+            assert!(!t.against_speed(&at(near, n / 2 + n / 10 + 4), &predicted));
+        },
+    );
 }
