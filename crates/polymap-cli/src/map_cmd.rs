@@ -590,7 +590,7 @@ fn report(a: &MapArgs, run: &RunRecord, stats: Option<&CarmenStats>) {
         run.mapper.tracking_summary(),
         run.trajectory.len(),
         run.mapper.config().tracking.odometry.odometry_witness_m,
-        a.odometry,
+        run.mapper.config().mapper.motion_prior == polymap::tracking::MotionPrior::Odometry,
     );
     crate::warnings::warn_odometry(run.mapper.tracking_summary(), a.odometry);
     crate::warnings::warn_consistency(run.history.map_consistency.as_ref());

@@ -109,8 +109,16 @@ impl ObservedSpeed {
     }
 
     /// Takes the step to the scan just tracked (`None` for the first), whether that scan was
-    /// observed (`ok`, every direction, not a corner pose), and its stamp (seconds).
-    pub(super) fn record(&mut self, step: Option<Pose2>, observed: bool, stamp_s: Option<f64>) {
+    /// observed (`ok`, every direction, not a corner pose), and its stamp (seconds). Returns
+    /// whether the step set the speed as it is ([`ObservedSpeed::motion`]'s translation is the
+    /// step's own: not an older driving step kept over a turn on the spot, nor a step out of a
+    /// stop taken at the cruise speed).
+    pub(super) fn record(
+        &mut self,
+        step: Option<Pose2>,
+        observed: bool,
+        stamp_s: Option<f64>,
+    ) -> bool {
         self.last_gap_scale = Some(self.gap_ratio(stamp_s));
         let dt = match (self.last_stamp_s, stamp_s) {
             (Some(a), Some(b)) if b > a => Some(b - a),
@@ -147,6 +155,10 @@ impl ObservedSpeed {
         };
         self.last_observed = observed;
         self.last_stamp_s = stamp_s;
+        step.filter(|_| taken).is_some_and(|step| {
+            self.motion()
+                .is_some_and(|m| m.translation() == step.translation())
+        })
     }
 
     /// Takes an observed driving step (no turn on the spot): whether it is the first out of a
@@ -216,21 +228,33 @@ impl ObservedSpeed {
     }
 
     /// Takes how well the step just recorded told the speed, the step `dt_s` seconds long
-    /// (`None` where the stamps do not time it): an observed step's own spread along its
-    /// weakest direction (`observed_sigma_m`, metres) over its time sets the speed's variance;
-    /// any other step grows it by what a robot's acceleration ([`PRIOR_ACCEL_M_S2`]) changes a
-    /// speed by over its time, `(a·dt)²`, each step on its own (a random walk). A weakly
-    /// observed step tells nothing: along a corridor its few points pull it where the map
-    /// ends, and counting them narrowed the speed onto a stale one (the simulated corridor
-    /// with a 360° laser every 2nd scan: 0.27 → 0.45 m).
+    /// (`None` where the stamps do not time it): the spread along its weakest direction
+    /// (`observed_sigma_m`, metres) of a step that set the speed ([`ObservedSpeed::record`]),
+    /// over its time, sets the speed's variance; any other step grows it by what a robot's
+    /// acceleration ([`PRIOR_ACCEL_M_S2`]) changes a speed by over its time, `(a·dt)²`, each
+    /// step on its own (a random walk); an untimed step leaves the speed's spread unknown. A
+    /// weakly observed step tells nothing: along a corridor its few points pull it where the
+    /// map ends, and counting them narrowed the speed onto a stale one (the simulated
+    /// corridor with a 360° laser every 2nd scan: 0.27 → 0.45 m).
     pub(super) fn weigh(&mut self, observed_sigma_m: Option<f64>, dt_s: Option<f64>) {
         let Some(dt) = dt_s.filter(|&dt| dt > 0.0) else {
+            self.speed_var = None;
             return;
         };
         self.speed_var = match observed_sigma_m {
             Some(sigma) => Some((sigma / dt).powi(2)),
             None => self.speed_var.map(|v| v + (PRIOR_ACCEL_M_S2 * dt).powi(2)),
         };
+    }
+
+    /// How far the constant-velocity prediction to a scan stamped `stamp_s` may lie from where
+    /// the speed last observed puts the robot after the step's own time, metres: the
+    /// prediction spans one scan's motion (a gap's many, [`ObservedSpeed::gap_scale`]), the
+    /// step lasts its time step over the typical one; `None` where the stamps do not time it.
+    pub(super) fn span_mismatch_m(&self, stamp_s: Option<f64>) -> Option<f64> {
+        let (dt, typical) = (self.step_dt_s(stamp_s)?, self.typical_dt_s()?);
+        let per_scan_m = self.motion()?.translation().length();
+        Some(per_scan_m * (dt / typical - self.gap_scale(stamp_s)).abs())
     }
 
     /// The standard deviation of the speed last observed, m/s ([`ObservedSpeed::weigh`]).
@@ -305,7 +329,7 @@ mod tests {
     }
 
     /// The speed's spread is an observed step's own, over its time, and grows with every step
-    /// since by what a robot's acceleration changes a speed by; untimed steps change nothing.
+    /// since by what a robot's acceleration changes a speed by; an untimed step unsets it.
     #[test]
     fn the_speeds_spread_is_the_observed_steps_own_and_grows_with_each_step_since() {
         let mut speed = ObservedSpeed::default();
@@ -322,11 +346,36 @@ mod tests {
         }
         let grown = (0.0025 + 3.0 * (PRIOR_ACCEL_M_S2 * 0.1_f64).powi(2)).sqrt();
         assert!((speed.speed_sigma_m_s().unwrap() - grown).abs() < 1e-12);
-        // An untimed step leaves it; the next observed step sets it anew.
+        // An untimed step leaves it unknown until the next observed step sets it anew.
         speed.weigh(None, None);
-        assert!((speed.speed_sigma_m_s().unwrap() - grown).abs() < 1e-12);
+        assert_eq!(speed.speed_sigma_m_s(), None);
+        speed.weigh(None, Some(0.1));
+        assert_eq!(speed.speed_sigma_m_s(), None);
         speed.weigh(Some(0.002), Some(0.2));
         assert!((speed.speed_sigma_m_s().unwrap() - 0.01).abs() < 1e-12);
+    }
+
+    /// Only a step that set the speed as it is tells the speed's spread: not an unobserved
+    /// step nor the first observed one after it, nor one at an unusual time step, nor a turn
+    /// on the spot (the speed keeps the driving step before it), nor a step out of a stop
+    /// taken at the cruise speed.
+    #[test]
+    fn a_step_sets_the_speed_only_where_the_speed_is_that_step() {
+        let mut speed = ObservedSpeed::default();
+        let drive = Pose2::new(0.5, 0.0, 0.0);
+        assert!(!speed.record(None, true, Some(0.0)));
+        for k in 1..=6 {
+            assert!(speed.record(Some(drive), true, Some(0.1 * k as f64)));
+        }
+        assert!(!speed.record(Some(drive), false, Some(0.7)));
+        assert!(!speed.record(Some(drive), true, Some(0.8)));
+        assert!(speed.record(Some(drive), true, Some(0.9)));
+        assert!(!speed.record(Some(drive), true, Some(0.901)));
+        assert!(speed.record(Some(drive), true, Some(1.0)));
+        assert!(!speed.record(Some(Pose2::new(0.02, 0.0, 0.9)), true, Some(1.2)));
+        assert!(speed.record(Some(Pose2::new(0.01, 0.0, 0.0)), true, Some(1.3)));
+        assert!(!speed.record(Some(Pose2::new(0.2, 0.0, 0.0)), true, Some(1.4)));
+        assert!(speed.record(Some(Pose2::new(0.3, 0.0, 0.0)), true, Some(1.5)));
     }
 
     #[test]

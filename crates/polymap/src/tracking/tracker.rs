@@ -297,11 +297,12 @@ impl Tracker {
             }
             let step = self.last_pose.map(|last| last.between(&pose));
             let dt_s = self.observed.step_dt_s(scan.stamp_s);
-            let observed = observed && !tracking.corner_won;
-            self.observed.record(step, observed, scan.stamp_s);
-            // How well the observed step told its translation: its spread along its weakest
-            // direction, each point counted at its residuals' variance where that is larger.
-            let observed_sigma_m = align.filter(|_| observed && step.is_some()).map(|a| {
+            let set_speed =
+                self.observed
+                    .record(step, observed && !tracking.corner_won, scan.stamp_s);
+            // How well a step that set the speed told its translation: its spread along its
+            // weakest direction, each point counted at its residuals' variance where larger.
+            let observed_sigma_m = align.filter(|_| set_speed).map(|a| {
                 let per_point_m2 = FIT_VARIANCE_M2.max(a.residual_rms_m * a.residual_rms_m);
                 (per_point_m2 / a.translation_information.weakest.max(f64::MIN_POSITIVE)).sqrt()
             });
@@ -448,14 +449,18 @@ impl Tracker {
     }
 
     /// Without the odometry prior, how far the robot may be from the constant-velocity prior's
-    /// pose at a scan stamped `stamp_s` ([`speed_spread_m`]), where the stamps time the step and
-    /// a timed observed step told the speed.
+    /// pose at a scan stamped `stamp_s`, metres: [`speed_spread_m`] over the step's time, plus
+    /// what the prediction's span differs from that time by
+    /// ([`ObservedSpeed::span_mismatch_m`]); where the stamps time the step, a timed step that
+    /// set the speed told it, and the scan before was not lost (the prediction then builds on
+    /// a poor fit, as the odometry's step is not used then either).
     fn speed_spread_m(&self, stamp_s: Option<f64>) -> Option<f64> {
         let on = self.starts.motion_prior == MotionPrior::ConstantVelocity
             && self.starts.keep_observed_velocity
-            && self.observed.motion().is_some();
+            && self.lost_streak == 0;
         let dt_s = self.observed.step_dt_s(stamp_s).filter(|_| on)?;
-        Some(speed_spread_m(dt_s, self.observed.speed_sigma_m_s()?))
+        let mismatch_m = self.observed.span_mismatch_m(stamp_s)?;
+        Some(speed_spread_m(dt_s, self.observed.speed_sigma_m_s()?) + mismatch_m)
     }
 
     /// The constant-velocity step from the last pose to a scan stamped `stamp_s` (robot frame

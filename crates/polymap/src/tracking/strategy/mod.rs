@@ -37,7 +37,9 @@
 //!    heading always, its position up to `tracking.search.max_window_m`; after a gap in the log, as
 //!    far as the robot can go and turn in its time), or the whole map every
 //!    `RELOCALIZE_EVERY_LOST` scans lost in a row; ICP from its best pose replaces
-//!    ICP from the starts only with `SEARCH_WIN_MARGIN` more inliers (plus two).
+//!    ICP from the starts only with `SEARCH_WIN_MARGIN` more inliers (plus two); without
+//!    odometry, a pose the speed's spread excludes against one it allows only by ratio
+//!    ([`Attempt::against_speed`], as for every candidate below).
 //!    A robot that stood still and still fits poorly is searched again as far as it can turn
 //!    since the last `ok` scan, a turn on the spot; that pose must win by
 //!    `CORNER_WIN_RATIO` ([`Attempt::turned_on_the_spot`]).
@@ -153,10 +155,11 @@ pub struct TrackInput<'a> {
     /// pose moved by it, and its spread (the motion prior's, `tracking/estimator.rs`) bounds
     /// where the robot may be without the odometry having failed.
     pub odometry_step: Option<Pose2>,
-    /// Without the odometry prior, how far the robot may be from the constant-velocity
-    /// prediction ([`TrackInput::unobserved_to`]) unless its speed changed beyond a robot's
-    /// acceleration, metres (`tracking/estimator.rs`, `speed_spread_m`): where the stamps time
-    /// the step and an observed step told the speed.
+    /// Without the odometry prior, how far the robot may be from the previous pose moved by
+    /// the speed last observed ([`TrackInput::unobserved_to`]) unless its speed changed beyond
+    /// a robot's acceleration, metres (`tracking/estimator.rs`, `speed_spread_m`): where the
+    /// stamps time the step, a step that set the speed told it, and the scan before was not
+    /// lost.
     pub speed_spread_m: Option<f64>,
 }
 
