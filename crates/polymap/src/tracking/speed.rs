@@ -89,6 +89,8 @@ pub(super) struct ObservedSpeed {
     /// The variance of the speed last observed, (m/s)² ([`ObservedSpeed::weigh`]); `None`
     /// before a timed observed step.
     speed_var: Option<f64>,
+    /// The median of the recent time steps, seconds ([`ObservedSpeed::typical_dt_s`]).
+    typical_dt_s: Option<f64>,
 }
 
 impl ObservedSpeed {
@@ -147,6 +149,7 @@ impl ObservedSpeed {
             self.dts[self.next] = dt;
             self.next = (self.next + 1) % TYPICAL_DT_STEPS;
             self.filled = (self.filled + 1).min(TYPICAL_DT_STEPS);
+            self.typical_dt_s = self.median_dt_s();
         }
         // A stamp that does not increase (or is missing) restarts the count of steps in time.
         self.in_time = match dt {
@@ -282,6 +285,12 @@ impl ObservedSpeed {
 
     /// The median of the recent time steps, once there are a third of the ring.
     fn typical_dt_s(&self) -> Option<f64> {
+        self.typical_dt_s
+    }
+
+    /// [`ObservedSpeed::typical_dt_s`] computed from the ring (kept, as it is asked for several
+    /// times a scan and changes only when a time step is pushed).
+    fn median_dt_s(&self) -> Option<f64> {
         if self.filled < TYPICAL_DT_STEPS / 3 {
             return None;
         }

@@ -458,9 +458,10 @@ impl Tracker {
         let on = self.starts.motion_prior == MotionPrior::ConstantVelocity
             && self.starts.keep_observed_velocity
             && self.lost_streak == 0;
-        let dt_s = self.observed.step_dt_s(stamp_s).filter(|_| on)?;
+        let sigma_m_s = self.observed.speed_sigma_m_s().filter(|_| on)?;
+        let dt_s = self.observed.step_dt_s(stamp_s)?;
         let mismatch_m = self.observed.span_mismatch_m(stamp_s)?;
-        Some(speed_spread_m(dt_s, self.observed.speed_sigma_m_s()?) + mismatch_m)
+        Some(speed_spread_m(dt_s, sigma_m_s) + mismatch_m)
     }
 
     /// The constant-velocity step from the last pose to a scan stamped `stamp_s` (robot frame
