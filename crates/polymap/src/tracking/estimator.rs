@@ -103,8 +103,7 @@ pub(super) fn trusted_fit_information(
     residual_rms_m: f64,
     weak_below: f64,
 ) -> DMat3 {
-    let variance = FIT_VARIANCE_M2.max(residual_rms_m * residual_rms_m);
-    let full = fit_information(information) * (FIT_VARIANCE_M2 / variance);
+    let full = fit_information(information) * (FIT_VARIANCE_M2 / point_variance_m2(residual_rms_m));
     if information.weakest >= weak_below {
         return full;
     }
@@ -163,6 +162,20 @@ fn constant_velocity_information(dt_s: f64, age_s: f64) -> DMat3 {
     let spread_m = PRIOR_FLOOR_M + PRIOR_ACCEL_M_S2 * dt_s * (0.5 * dt_s + age_s.max(0.0));
     let along = 1.0 / (spread_m * spread_m);
     DMat3::from_diagonal(DVec3::new(along, along, 0.0))
+}
+
+/// The variance a fit's weighted point is counted at, m²: [`FIT_VARIANCE_M2`], or the fit's
+/// residuals' mean square where that is larger (a poor fit says less).
+fn point_variance_m2(residual_rms_m: f64) -> f64 {
+    FIT_VARIANCE_M2.max(residual_rms_m * residual_rms_m)
+}
+
+/// A fit's standard deviation along its weakest translation direction, metres
+/// ([`TranslationInformation::weakest`] points' worth, each at [`point_variance_m2`]).
+///
+/// [`TranslationInformation::weakest`]: crate::align::TranslationInformation::weakest
+pub(super) fn weakest_sigma_m(information: &TranslationInformation, residual_rms_m: f64) -> f64 {
+    (point_variance_m2(residual_rms_m) / information.weakest.max(f64::MIN_POSITIVE)).sqrt()
 }
 
 /// How far the robot may be from the constant-velocity prediction `dt_s` seconds after the

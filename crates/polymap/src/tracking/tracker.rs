@@ -6,7 +6,7 @@
 
 use super::estimator::{
     MotionModel, PoseCovariance, covariance_of, fuse, prior_information, speed_spread_m,
-    trusted_fit_information, unknown_covariance,
+    trusted_fit_information, unknown_covariance, weakest_sigma_m,
 };
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
@@ -18,9 +18,7 @@ use crate::align::{AlignParams, AlignResult, thin_points};
 use crate::geometry::Pose2;
 use crate::map::GlobalMap;
 use crate::scan::PreparedScan;
-use crate::tracking::params::{
-    FIT_VARIANCE_M2, LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, WEAK_DIRECTION_VELOCITY,
-};
+use crate::tracking::params::{LOOSE_POINT_SCANS, LOOSE_POINT_SPACING_M, WEAK_DIRECTION_VELOCITY};
 
 /// Where a scan stands in the two numberings of a run: `run` counts this run's scans from 0
 /// (the numbering of [`TrackingSummary`]); `map` counts every scan of the map's runs (a
@@ -300,12 +298,10 @@ impl Tracker {
             let set_speed =
                 self.observed
                     .record(step, observed && !tracking.corner_won, scan.stamp_s);
-            // How well a step that set the speed told its translation: its spread along its
-            // weakest direction, each point counted at its residuals' variance where larger.
-            let observed_sigma_m = align.filter(|_| set_speed).map(|a| {
-                let per_point_m2 = FIT_VARIANCE_M2.max(a.residual_rms_m * a.residual_rms_m);
-                (per_point_m2 / a.translation_information.weakest.max(f64::MIN_POSITIVE)).sqrt()
-            });
+            // How well a step that set the speed told its translation.
+            let observed_sigma_m = align
+                .filter(|_| set_speed)
+                .map(|a| weakest_sigma_m(&a.translation_information, a.residual_rms_m));
             self.observed.weigh(observed_sigma_m, dt_s);
             after_gap = self.observed.last_gap_scale() > 1.0;
             if after_gap {
