@@ -185,58 +185,20 @@ impl<K: Copy + Ord> SegmentIndex<K> {
     }
 
     fn cell_of(&self, p: Vec2) -> Cell {
-        (floor_i64(p.x / self.cell_m), floor_i64(p.y / self.cell_m))
+        cell_of(self.cell_m, p)
     }
 
-    /// The cells a segment is listed in: those whose centre lies within reach plus half a cell
-    /// diagonal of it (and a relative hair, so that rounding cannot leave out a cell the
-    /// segment passes through when the reach is 0).
-    fn cells_of(&self, s: &Segment) -> Vec<(Cell, f64)> {
-        let half_diagonal = self.half_diagonal_m();
-        let limit = (self.reach_m + half_diagonal) * (1.0 + 1e-9);
-        self.cells_around(s, self.reach_m + self.cell_m, limit)
+    /// Calls `f` with the cells a segment is listed in and their centre's distance from it:
+    /// those whose centre lies within reach plus half a cell diagonal of it (and a relative
+    /// hair, so that rounding cannot leave out a cell the segment passes through when the
+    /// reach is 0).
+    fn cells_of(cell_m: f64, reach_m: f64, s: &Segment, f: impl FnMut(Cell, f64)) {
+        let limit = (reach_m + half_diagonal_m(cell_m)) * (1.0 + 1e-9);
+        cells_around(cell_m, s, reach_m + cell_m, limit, f)
     }
 
     fn half_diagonal_m(&self) -> f64 {
-        self.cell_m * std::f64::consts::FRAC_1_SQRT_2
-    }
-
-    /// The cells of the segment's bounding box grown by `grow_m` whose centre lies within
-    /// `limit_m` of the segment, each with that distance (metres).
-    ///
-    /// Only the strip along the segment is visited: per column of cells, the rows where the
-    /// part of the segment within `limit_m` of the column lies (widened by half a cell against
-    /// rounding). The cost grows with the segment's length, not its bounding box: a long
-    /// diagonal once walked every cell of its box (minutes for one wall of a hostile map).
-    fn cells_around(&self, s: &Segment, grow_m: f64, limit_m: f64) -> Vec<(Cell, f64)> {
-        let (lo, hi) = s.bounds();
-        let g = Vec2::splat(grow_m);
-        let (c0, c1) = (self.cell_of(lo - g), self.cell_of(hi + g));
-        let d = s.vector();
-        let margin = limit_m.max(0.0) + 0.5 * self.cell_m;
-        let mut out = Vec::new();
-        for i in c0.0..=c1.0 {
-            let xc = (i as f64 + 0.5) * self.cell_m;
-            // The segment's points within `margin` of the column's centre line, by x.
-            let (y0, y1) = if d.x != 0.0 {
-                let t0 = ((xc - margin - s.start.x) / d.x).clamp(0.0, 1.0);
-                let t1 = ((xc + margin - s.start.x) / d.x).clamp(0.0, 1.0);
-                let (ya, yb) = (s.start.y + d.y * t0, s.start.y + d.y * t1);
-                (ya.min(yb), ya.max(yb))
-            } else {
-                (lo.y, hi.y)
-            };
-            let j0 = floor_i64((y0 - margin) / self.cell_m).max(c0.1);
-            let j1 = floor_i64((y1 + margin) / self.cell_m).min(c1.1);
-            for j in j0..=j1 {
-                let centre = Vec2::new(xc, (j as f64 + 0.5) * self.cell_m);
-                let d_2 = s.distance_2_to_point(centre);
-                if d_2 <= limit_m * limit_m {
-                    out.push(((i, j), d_2.sqrt()));
-                }
-            }
-        }
-        out
+        half_diagonal_m(self.cell_m)
     }
 
     /// Adds a segment under `key`. A segment with a non-finite endpoint is not indexed (no
@@ -246,12 +208,13 @@ impl<K: Copy + Ord> SegmentIndex<K> {
             return;
         }
         let half_diagonal = self.half_diagonal_m();
-        for (c, centre_distance) in self.cells_of(&segment) {
+        let cells = &mut self.cells;
+        Self::cells_of(self.cell_m, self.reach_m, &segment, |c, centre_distance| {
             let entry = Entry::new(key, segment, centre_distance, half_diagonal);
-            let list = self.cells.entry(c).or_default();
+            let list = cells.entry(c).or_default();
             let at = list.partition_point(|e| e.floor_2 <= entry.floor_2);
             list.insert(at, entry);
-        }
+        });
     }
 
     /// Removes the segment stored under `key` (pass the same segment as inserted).
@@ -259,16 +222,17 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         if !segment.is_finite() {
             return;
         }
-        for (c, _) in self.cells_of(segment) {
-            if let Some(list) = self.cells.get_mut(&c) {
+        let cells = &mut self.cells;
+        Self::cells_of(self.cell_m, self.reach_m, segment, |c, _| {
+            if let Some(list) = cells.get_mut(&c) {
                 if let Some(i) = list.iter().position(|e| e.key == key) {
                     list.remove(i); // keeps the order by distance floor
                 }
                 if list.is_empty() {
-                    self.cells.remove(&c);
+                    cells.remove(&c);
                 }
             }
-        }
+        });
     }
 
     /// The nearest segment within `max_distance_m` of `p`, with the projection of `p` onto it;
@@ -403,10 +367,10 @@ impl<K: Copy + Ord> SegmentIndex<K> {
     /// The cells a segment passes through (and possibly a few neighbours): those of its
     /// bounding box whose centre lies within half a cell diagonal of it.
     fn cells_touched_by(&self, s: &Segment) -> Vec<Cell> {
-        self.cells_around(s, 0.0, self.half_diagonal_m() * (1.0 + 1e-9))
-            .into_iter()
-            .map(|(c, _)| c)
-            .collect()
+        let mut out = Vec::new();
+        let limit = self.half_diagonal_m() * (1.0 + 1e-9);
+        cells_around(self.cell_m, s, 0.0, limit, |c, _| out.push(c));
+        out
     }
 
     /// Calls `f` with every segment that may cross segment `a`–`b` (metres): those listed in
@@ -492,6 +456,52 @@ impl<K: Copy + Ord> SegmentIndex<K> {
                 if let Some(list) = self.cells.get(&(i, j)) {
                     f(list);
                 }
+            }
+        }
+    }
+}
+
+/// The cell holding `p`, for cells of `cell_m` metres.
+fn cell_of(cell_m: f64, p: Vec2) -> Cell {
+    (floor_i64(p.x / cell_m), floor_i64(p.y / cell_m))
+}
+
+/// Half the diagonal of a cell of `cell_m` metres.
+fn half_diagonal_m(cell_m: f64) -> f64 {
+    cell_m * std::f64::consts::FRAC_1_SQRT_2
+}
+
+/// Calls `f` with each cell (of `cell_m` metres) of the segment's bounding box grown by
+/// `grow_m` whose centre lies within `limit_m` of the segment, and with that distance (metres).
+///
+/// Only the strip along the segment is visited: per column of cells, the rows where the
+/// part of the segment within `limit_m` of the column lies (widened by half a cell against
+/// rounding). The cost grows with the segment's length, not its bounding box: a long
+/// diagonal once walked every cell of its box (minutes for one wall of a hostile map).
+fn cells_around(cell_m: f64, s: &Segment, grow_m: f64, limit_m: f64, mut f: impl FnMut(Cell, f64)) {
+    let (lo, hi) = s.bounds();
+    let g = Vec2::splat(grow_m);
+    let (c0, c1) = (cell_of(cell_m, lo - g), cell_of(cell_m, hi + g));
+    let d = s.vector();
+    let margin = limit_m.max(0.0) + 0.5 * cell_m;
+    for i in c0.0..=c1.0 {
+        let xc = (i as f64 + 0.5) * cell_m;
+        // The segment's points within `margin` of the column's centre line, by x.
+        let (y0, y1) = if d.x != 0.0 {
+            let t0 = ((xc - margin - s.start.x) / d.x).clamp(0.0, 1.0);
+            let t1 = ((xc + margin - s.start.x) / d.x).clamp(0.0, 1.0);
+            let (ya, yb) = (s.start.y + d.y * t0, s.start.y + d.y * t1);
+            (ya.min(yb), ya.max(yb))
+        } else {
+            (lo.y, hi.y)
+        };
+        let j0 = floor_i64((y0 - margin) / cell_m).max(c0.1);
+        let j1 = floor_i64((y1 + margin) / cell_m).min(c1.1);
+        for j in j0..=j1 {
+            let centre = Vec2::new(xc, (j as f64 + 0.5) * cell_m);
+            let d_2 = s.distance_2_to_point(centre);
+            if d_2 <= limit_m * limit_m {
+                f((i, j), d_2.sqrt());
             }
         }
     }
