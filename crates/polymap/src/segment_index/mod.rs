@@ -21,7 +21,9 @@
 //! Each cell lists every segment that comes within `reach_m` of it, so a nearest query within
 //! the reach looks at one cell only: one hash lookup and a few exact projections, where an
 //! R-tree walks a heap. The grid follows the map through insertions and removals; cells exist
-//! only where segments are, so memory grows with the mapped area, not with a bounding box.
+//! only where segments are (and, at most as many again, where a removal lately emptied them,
+//! kept for the insertion that usually follows), so memory grows with the mapped area, not
+//! with a bounding box.
 
 use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{AABB, RTree};
@@ -130,6 +132,10 @@ pub struct SegmentIndex<K> {
     cell_m: f64,
     reach_m: f64,
     cells: FxHashMap<Cell, Vec<Entry<K>>>,
+    /// Cells whose list a removal emptied, kept with their allocation for the insertions that
+    /// follow (a merge removes a segment and inserts its successor over the same cells);
+    /// swept when they outnumber the occupied cells, so memory stays within twice theirs.
+    empty_cells: usize,
 }
 
 impl SegmentIndex<usize> {
@@ -166,12 +172,13 @@ impl<K: Copy + Ord> SegmentIndex<K> {
             cell_m,
             reach_m: reach_m.max(0.0),
             cells: FxHashMap::default(),
+            empty_cells: 0,
         }
     }
 
     /// True when no segment is indexed.
     pub fn is_empty(&self) -> bool {
-        self.cells.is_empty()
+        self.cells.len() == self.empty_cells
     }
 
     /// The cell size, metres.
@@ -208,10 +215,13 @@ impl<K: Copy + Ord> SegmentIndex<K> {
             return;
         }
         let half_diagonal = self.half_diagonal_m();
-        let cells = &mut self.cells;
+        let (cells, empty_cells) = (&mut self.cells, &mut self.empty_cells);
         Self::cells_of(self.cell_m, self.reach_m, &segment, |c, centre_distance| {
             let entry = Entry::new(key, segment, centre_distance, half_diagonal);
             let list = cells.entry(c).or_default();
+            if list.is_empty() && list.capacity() > 0 {
+                *empty_cells -= 1;
+            }
             let at = list.partition_point(|e| e.floor_2 <= entry.floor_2);
             list.insert(at, entry);
         });
@@ -222,17 +232,21 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         if !segment.is_finite() {
             return;
         }
-        let cells = &mut self.cells;
+        let (cells, empty_cells) = (&mut self.cells, &mut self.empty_cells);
         Self::cells_of(self.cell_m, self.reach_m, segment, |c, _| {
-            if let Some(list) = cells.get_mut(&c) {
-                if let Some(i) = list.iter().position(|e| e.key == key) {
-                    list.remove(i); // keeps the order by distance floor
-                }
+            if let Some(list) = cells.get_mut(&c)
+                && let Some(i) = list.iter().position(|e| e.key == key)
+            {
+                list.remove(i); // keeps the order by distance floor
                 if list.is_empty() {
-                    cells.remove(&c);
+                    *empty_cells += 1;
                 }
             }
         });
+        if 2 * self.empty_cells > self.cells.len() {
+            self.cells.retain(|_, list| !list.is_empty());
+            self.empty_cells = 0;
+        }
     }
 
     /// The nearest segment within `max_distance_m` of `p`, with the projection of `p` onto it;

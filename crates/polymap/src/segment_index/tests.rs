@@ -24,6 +24,17 @@ proptest! {
         for (i, s) in segs.iter().enumerate() {
             if removed[i] { grid.remove(i, s); } else { kept.push((i, *s)); }
         }
+        // Some removed segments come back, into cells a removal emptied.
+        for (i, s) in segs.iter().enumerate().filter(|(i, _)| removed[*i] && i % 3 == 0) {
+            grid.insert(i, *s);
+            kept.push((i, *s));
+        }
+        kept.sort_by_key(|k| k.0);
+        // Emptied cells are counted, and never outnumber the occupied ones.
+        let empty = grid.cells.values().filter(|l| l.is_empty()).count();
+        prop_assert_eq!(grid.empty_cells, empty);
+        prop_assert!(2 * empty <= grid.cells.len());
+        prop_assert_eq!(grid.is_empty(), kept.is_empty());
         let q = Vec2::new(qx, qy);
         let kept_segs: Vec<Segment> = kept.iter().map(|(_, s)| *s).collect();
         let expect = brute(&kept_segs, q, d).map(|j| kept[j].0);
