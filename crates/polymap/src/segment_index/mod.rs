@@ -28,6 +28,7 @@
 use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{AABB, RTree};
 use rustc_hash::FxHashMap;
+use std::collections::hash_map::Entry as CellEntry;
 
 use crate::geometry::{Segment, SegmentProjection, Vec2, floor_i64};
 
@@ -218,10 +219,16 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         let (cells, empty_cells) = (&mut self.cells, &mut self.empty_cells);
         Self::cells_of(self.cell_m, self.reach_m, &segment, |c, centre_distance| {
             let entry = Entry::new(key, segment, centre_distance, half_diagonal);
-            let list = cells.entry(c).or_default();
-            if list.is_empty() && list.capacity() > 0 {
-                *empty_cells -= 1;
-            }
+            let list = match cells.entry(c) {
+                CellEntry::Occupied(kept) => {
+                    let list = kept.into_mut();
+                    if list.is_empty() {
+                        *empty_cells -= 1;
+                    }
+                    list
+                }
+                CellEntry::Vacant(new) => new.insert(Vec::new()),
+            };
             let at = list.partition_point(|e| e.floor_2 <= entry.floor_2);
             list.insert(at, entry);
         });

@@ -270,3 +270,22 @@ fn far_coordinates_still_index() {
         assert_eq!(grid.near_segment(&s, 0.5), vec![1]);
     }
 }
+
+/// A copy of a grid counts its emptied cells as the grid does: the count follows the lists, not
+/// their allocations (a copied empty list has none, so an allocation cannot tell a kept cell).
+#[test]
+fn a_copy_keeps_count_of_its_emptied_cells() {
+    let mut grid = SegmentIndex::new(0.5, 1.0);
+    let a = Segment::new(Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0));
+    let b = Segment::new(Vec2::new(0.0, 5.0), Vec2::new(8.0, 5.0));
+    grid.insert(1u8, a);
+    grid.insert(2u8, b);
+    grid.remove(1, &a);
+    let mut copy = grid.clone();
+    copy.insert(1, a);
+    let empty = copy.cells.values().filter(|l| l.is_empty()).count();
+    assert_eq!(copy.empty_cells, empty);
+    copy.remove(2, &b);
+    assert!(!copy.is_empty());
+    assert_eq!(copy.nearest(Vec2::new(0.5, 0.1), 1.0).map(|h| h.0), Some(1));
+}
