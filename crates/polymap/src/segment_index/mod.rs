@@ -21,9 +21,9 @@
 //! Each cell lists every segment that comes within `reach_m` of it, so a nearest query within
 //! the reach looks at one cell only: one hash lookup and a few exact projections, where an
 //! R-tree walks a heap. The grid follows the map through insertions and removals; cells exist
-//! only where segments are (and, at most as many again, where a removal lately emptied them,
-//! kept for the insertion that usually follows), so memory grows with the mapped area, not
-//! with a bounding box.
+//! only where segments are (and, at most as many again, where a removal emptied them since the
+//! last sweep, kept for the insertion that usually follows), so memory grows with the mapped
+//! area, not with a bounding box.
 
 use rstar::primitives::{GeomWithData, Rectangle};
 use rstar::{AABB, RTree};
@@ -133,9 +133,10 @@ pub struct SegmentIndex<K> {
     cell_m: f64,
     reach_m: f64,
     cells: FxHashMap<Cell, Vec<Entry<K>>>,
-    /// Cells whose list a removal emptied, kept with their allocation for the insertions that
-    /// follow (a merge removes a segment and inserts its successor over the same cells);
-    /// swept when they outnumber the occupied cells, so memory stays within twice theirs.
+    /// Cells whose list a removal emptied, kept (with their allocation, but in a copy) for the
+    /// insertions that follow (a merge removes a segment and inserts its successor over the
+    /// same cells); swept when they outnumber the occupied cells, so the cells listed stay
+    /// within twice the occupied ones.
     empty_cells: usize,
 }
 
@@ -301,7 +302,7 @@ impl<K: Copy + Ord> SegmentIndex<K> {
     /// to the smaller key. `None` when the index is empty or `p` is not finite.
     ///
     /// Searches within twice the last distance until something is found or the search box
-    /// holds every occupied cell (then one exact walk over all of them).
+    /// holds as many cells as are listed (then one exact walk over all of them).
     pub fn nearest_anywhere(&self, p: Vec2) -> Option<(K, Segment, SegmentProjection)> {
         if !p.is_finite() {
             return None;
@@ -464,7 +465,7 @@ impl<K: Copy + Ord> SegmentIndex<K> {
         let cells = (c1.0.saturating_sub(c0.0).saturating_add(1))
             .saturating_mul(c1.1.saturating_sub(c0.1).saturating_add(1));
         if cells > self.cells.len() as i64 || cells < 0 {
-            // A box larger than the occupied area: walk the occupied cells instead.
+            // A box of more cells than are listed: walk the listed cells instead.
             for (c, list) in &self.cells {
                 if (c0.0..=c1.0).contains(&c.0) && (c0.1..=c1.1).contains(&c.1) {
                     f(list);
