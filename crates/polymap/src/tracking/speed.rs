@@ -89,7 +89,9 @@ pub(super) struct ObservedSpeed {
     /// The variance of the speed last observed, (m/s)² ([`ObservedSpeed::weigh`]); `None`
     /// before a timed observed step.
     speed_var: Option<f64>,
-    /// The median of the recent time steps, seconds ([`ObservedSpeed::typical_dt_s`]).
+    /// The median of the recent time steps, once there are a third of the ring, seconds
+    /// ([`ObservedSpeed::median_dt_s`], kept: it is asked for several times a scan and changes
+    /// only when a time step is pushed).
     typical_dt_s: Option<f64>,
 }
 
@@ -126,7 +128,7 @@ impl ObservedSpeed {
             (Some(a), Some(b)) if b > a => Some(b - a),
             _ => None,
         };
-        let typical = self.typical_dt_s();
+        let typical = self.typical_dt_s;
         let usual = match (dt, typical) {
             (Some(dt), Some(m)) => (0.5 * m..=2.0 * m).contains(&dt),
             _ => true,
@@ -197,7 +199,7 @@ impl ObservedSpeed {
         };
         // Every step in time pushed a time step: the ring is full.
         let timed = self.in_time >= TYPICAL_DT_STEPS;
-        let Some(typical) = self.typical_dt_s().filter(|_| timed) else {
+        let Some(typical) = self.typical_dt_s.filter(|_| timed) else {
             return 1.0;
         };
         let ratio = (b - a) / typical;
@@ -216,7 +218,7 @@ impl ObservedSpeed {
     pub(super) fn step_dt_s(&self, stamp_s: Option<f64>) -> Option<f64> {
         let (a, b) = (self.last_stamp_s?, stamp_s?);
         let typical = self
-            .typical_dt_s()
+            .typical_dt_s
             .filter(|_| self.in_time >= TYPICAL_DT_STEPS)?;
         (self.irregular_steps(typical) <= TYPICAL_DT_STEPS / 5 && b > a)
             .then(|| (b - a).clamp(0.5 * typical, GAP_SCALE_MAX * typical))
@@ -255,7 +257,7 @@ impl ObservedSpeed {
     /// prediction spans one scan's motion (a gap's many, [`ObservedSpeed::gap_scale`]), the
     /// step lasts its time step over the typical one; `None` where the stamps do not time it.
     pub(super) fn span_mismatch_m(&self, stamp_s: Option<f64>) -> Option<f64> {
-        let (dt, typical) = (self.step_dt_s(stamp_s)?, self.typical_dt_s()?);
+        let (dt, typical) = (self.step_dt_s(stamp_s)?, self.typical_dt_s?);
         let per_scan_m = self.motion()?.translation().length();
         Some(per_scan_m * (dt / typical - self.gap_scale(stamp_s)).abs())
     }
@@ -284,12 +286,6 @@ impl ObservedSpeed {
     }
 
     /// The median of the recent time steps, once there are a third of the ring.
-    fn typical_dt_s(&self) -> Option<f64> {
-        self.typical_dt_s
-    }
-
-    /// [`ObservedSpeed::typical_dt_s`] computed from the ring (kept, as it is asked for several
-    /// times a scan and changes only when a time step is pushed).
     fn median_dt_s(&self) -> Option<f64> {
         if self.filled < TYPICAL_DT_STEPS / 3 {
             return None;

@@ -826,6 +826,15 @@ fn the_scans_own_motion_overrules_odometry_only_with_a_fit() {
     });
 }
 
+/// ICP's result `r` as if it had ended at `pose` with `inliers` inliers: a candidate to judge.
+fn fit_at(r: &AlignResult, pose: Pose2, inliers: usize) -> AlignResult {
+    AlignResult {
+        map_from_robot: pose,
+        inliers,
+        ..*r
+    }
+}
+
 /// With the odometry's step known, a pose the odometry contradicts must win by ratio against
 /// one it allows: the stalled wheel's scene, odometry having read a turn of 70° and 0.2 m, its
 /// spread 8° (Intel with odometry, every 10th scan: a pose a quarter turn from the odometry's
@@ -837,11 +846,7 @@ fn a_pose_the_odometry_contradicts_overrules_it_only_by_ratio() {
     with_odometry_attempt((truth, guess, cv), &align, &tracking, |t| {
         let n = t.points.len();
         let r = t.run(&[], truth);
-        let at = |pose: Pose2, inliers: usize| AlignResult {
-            map_from_robot: pose,
-            inliers,
-            ..r
-        };
+        let at = |pose, inliers| fit_at(&r, pose, inliers);
         let odometry = at(guess, n / 2);
         let by_one = at(truth, n / 2 + 1);
         let by_ratio = at(
@@ -1396,11 +1401,7 @@ fn a_pose_the_speed_excludes_beats_the_prediction_only_by_ratio() {
         |t| {
             let n = t.points.len();
             let r = t.run(&[], guess);
-            let at = |pose: Pose2, inliers: usize| AlignResult {
-                map_from_robot: pose,
-                inliers,
-                ..r
-            };
+            let at = |pose, inliers| fit_at(&r, pose, inliers);
             let behind = Pose2::new(guess.x_m - 0.84, guess.y_m, guess.theta_rad);
             let predicted = at(guess, n / 2);
             let by_margin = at(behind, n / 2 + n / 10 + 4);
