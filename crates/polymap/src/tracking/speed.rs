@@ -282,7 +282,13 @@ impl ObservedSpeed {
     /// the last `step` per scan (divided by the gap it spanned), times this scan's
     /// [`ObservedSpeed::gap_scale`].
     pub(super) fn predicted_step(&self, step: &Pose2, stamp_s: Option<f64>) -> Pose2 {
-        scaled(step, self.gap_scale(stamp_s) / self.last_gap_scale())
+        scaled(&self.one_step(step), self.gap_scale(stamp_s))
+    }
+
+    /// The last `step` per scan (divided by the gap it spanned), robot frame of the last
+    /// scan: the motion over one typical time step.
+    pub(super) fn one_step(&self, step: &Pose2) -> Pose2 {
+        scaled(step, 1.0 / self.last_gap_scale())
     }
 
     /// The median of the recent time steps, once there are a third of the ring.

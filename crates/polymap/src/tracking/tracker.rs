@@ -468,6 +468,21 @@ impl Tracker {
         Some(self.observed.predicted_step(&prev.between(&last), stamp_s))
     }
 
+    /// After a gap in the log (a scan stamped `stamp_s` whose
+    /// [`ObservedSpeed::gap_scale`] spans several time steps), the last pose moved by one
+    /// time step's motion ([`ObservedSpeed::one_step`]; the last pose before two poses), map
+    /// frame; `None` when the scan follows no gap.
+    fn one_step_over_gap(&self, stamp_s: Option<f64>) -> Option<Pose2> {
+        let last = self.last_pose?;
+        if self.observed.gap_scale(stamp_s) <= 1.0 {
+            return None;
+        }
+        Some(match self.prev_pose {
+            Some(prev) => last.compose(&self.observed.one_step(&prev.between(&last))),
+            None => last,
+        })
+    }
+
     /// The log's odometry as a witness of the step to a scan whose odometry pose is
     /// `odom_from_robot` (`tracking.odometry.odometry_witness_m`): from the previous scan, or after lost
     /// scans from the last `ok` one; without the odometry prior, while its travel agrees with
@@ -534,7 +549,7 @@ impl Tracker {
             last_ok: last_ok.unwrap_or(guess),
             restart,
             dt_s,
-            after_gap: !odometry && self.observed.gap_scale(scan.stamp_s) > 1.0,
+            after_gap: self.one_step_over_gap(scan.stamp_s).filter(|_| !odometry),
             constant_velocity,
             recent: &self.recent,
             lost_streak: self.lost_streak,

@@ -135,10 +135,13 @@ pub struct TrackInput<'a> {
     pub restart: Pose2,
     /// Seconds since that scan, when both stamps are known and increase.
     pub dt_s: Option<f64>,
-    /// Without the odometry prior, whether the scan comes after a gap in stamps that keep
-    /// time (scans missing from the log): the prediction spans the gap, but a robot that stood
-    /// or turned on the spot before it predicts little motion over it.
-    pub after_gap: bool,
+    /// Without the odometry prior, after a gap in stamps that keep time (a time step of
+    /// several typical ones), where the robot is if it moved one scan's worth over it, map
+    /// frame: the last pose moved by the last motion per scan, or the last pose before there
+    /// is one. The guess spans the gap's time, but a gap is scans missing from the log or a
+    /// robot that waited or slowed, and the robot moved anywhere from about one step to the
+    /// gap's many; `None` when the scan follows no gap.
+    pub after_gap: Option<Pose2>,
     /// The constant-velocity prediction (the last pose moved by the last scan-to-scan motion),
     /// map frame, when there are two poses before; checked against the odometry guess with the
     /// odometry prior.

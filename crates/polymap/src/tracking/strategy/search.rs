@@ -4,7 +4,7 @@
 
 use super::{Aligned, Attempt, fits_nearly_as_well};
 use crate::align::{AlignResult, SearchWindow};
-use crate::geometry::Vec2;
+use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::tracking::params::MotionPrior;
 use crate::tracking::params::{CORNER_WIN_RATIO, RELOCALIZE_EVERY_LOST};
 use crate::tracking::recent::RecentMotion;
@@ -161,8 +161,8 @@ impl Attempt<'_> {
         // can go and turn in the gap's time (`within_reach`'s bounds, the translation up to
         // `max_window_m`): over a gap the last motion, even scaled to the gap's time, says
         // little (a robot that turned on the spot before a 3 s gap moved 0.6 m in it).
-        let after_gap = tracking.gap_window && input.after_gap;
-        if let Some(dt) = input.dt_s.filter(|_| poor && after_gap) {
+        let after_gap = input.after_gap.filter(|_| tracking.gap_window && poor);
+        if let (Some(one_step), Some(dt)) = (after_gap, input.dt_s) {
             let (reach_m, _) = tracking.reach(dt);
             let reach_m = reach_m.min(
                 tracking
@@ -172,6 +172,7 @@ impl Attempt<'_> {
             );
             window.half_xy_m = window.half_xy_m.max(reach_m);
             window.half_theta_rad = window.half_theta_rad.max(self.turn_reach_rad(dt));
+            window = spanning(&window, &one_step);
         }
         window
     }
@@ -301,5 +302,19 @@ impl Attempt<'_> {
             second_fit,
             on_the_spot: false,
         }
+    }
+}
+
+/// `window` (around the guess over a gap's time) widened to reach as far around `one_step`,
+/// the pose of one time step's motion: centred between the two, each within the window's
+/// reach of it (over a gap the robot moved anywhere from about one step to the gap's many).
+fn spanning(window: &SearchWindow, one_step: &Pose2) -> SearchWindow {
+    let guess = window.center;
+    let half_way = guess.translation().lerp(one_step.translation(), 0.5);
+    let turn = normalize_angle_rad(one_step.theta_rad - guess.theta_rad);
+    SearchWindow {
+        center: Pose2::new(half_way.x, half_way.y, guess.theta_rad + 0.5 * turn),
+        half_xy_m: window.half_xy_m + 0.5 * guess.translation().distance(one_step.translation()),
+        half_theta_rad: (window.half_theta_rad + 0.5 * turn.abs()).min(std::f64::consts::PI),
     }
 }

@@ -167,6 +167,11 @@ impl Attempt<'_> {
         if let Some(cv) = self.odometry_disagrees() {
             starts.push(cv);
         }
+        // After a gap in the log the guess spans the gap's time; the robot may have moved
+        // only about one step's worth in it (a robot that waited or slowed).
+        if let Some(one_step) = input.after_gap.filter(|p| !starts.contains(p)) {
+            starts.push(one_step);
+        }
         // After a lost scan, whose pose is a poor fit, also from the last `ok` pose, with
         // odometry moved by it since then (with point-to-segment ICP: `--preset paper` stays
         // as it was, as in `within_reach`).
