@@ -180,12 +180,25 @@ pub(super) fn weakest_sigma_m(information: &TranslationInformation, residual_rms
 
 /// How far the robot may be from the constant-velocity prediction `dt_s` seconds after the
 /// scan it moves on from, its speed known to `speed_sigma_m_s` (m/s, one standard deviation;
-/// [`ObservedSpeed::weigh`]), metres: the floor, the speed's error over the step, and half a
-/// robot's acceleration over it.
+/// [`ObservedSpeed::weigh`]), metres, one standard deviation: the floor, the speed's error
+/// over the step, and half the acceleration's ([`acceleration_sigma_m_s2`]) over it.
 ///
 /// [`ObservedSpeed::weigh`]: super::speed::ObservedSpeed::weigh
 pub(super) fn speed_spread_m(dt_s: f64, speed_sigma_m_s: f64) -> f64 {
-    PRIOR_FLOOR_M + dt_s * (speed_sigma_m_s + 0.5 * PRIOR_ACCEL_M_S2 * dt_s)
+    PRIOR_FLOOR_M + dt_s * (speed_sigma_m_s + 0.5 * acceleration_sigma_m_s2() * dt_s)
+}
+
+/// The standard deviation of a robot's acceleration where the speed's spread judges a pose,
+/// m/s²: [`PRIOR_ACCEL_M_S2`], the largest, put at the point the judgement stops at
+/// ([`SPEED_CONTRADICTS_CHI2`], 3.7 standard deviations). Counted as one standard deviation,
+/// it let a pose lie 3.7 times as far from the prediction as a robot's largest acceleration
+/// takes it: in the simulated ring at every 5th scan (a 360° laser, seed 3), after two
+/// ambiguous scans in the bare hallway the spread had grown from 0.14 to 0.48 m, and a pose
+/// 0.99 m behind the prediction of a robot going 0.25 m a scan (a speed change of 2 m/s in
+/// 0.5 s) passed it, one of five such jumps back and forth (0.39 m ATE, no warning naming a
+/// place; 0.06 m with this).
+pub(super) fn acceleration_sigma_m_s2() -> f64 {
+    PRIOR_ACCEL_M_S2 / SPEED_CONTRADICTS_CHI2.sqrt()
 }
 
 /// A pose further from the constant-velocity prediction than this, in the squared distance of
@@ -360,17 +373,18 @@ mod tests {
         }
     }
 
-    /// At ten scans a second, a speed known to 0.1 m/s spreads the prediction by 0.02 m: a
-    /// pose 7 cm off (3.5 spreads, χ² 12.25) is within it, one 8 cm off (χ² 16) is not, and
-    /// one 0.84 m behind a robot going 0.15 m a scan is far beyond.
+    /// At ten scans a second, a speed known to 0.1 m/s spreads the prediction by 1.6 cm: a
+    /// pose 6 cm off (3.7 spreads, χ² 13.5) is within it, one 6.2 cm off (χ² 14.4) is not,
+    /// and one 0.84 m behind a robot going 0.15 m a scan is far beyond.
     #[test]
     fn a_pose_beyond_the_speeds_spread_contradicts_it() {
         let spread = speed_spread_m(0.1, 0.1);
-        assert!((spread - 0.02).abs() < 1e-12, "{spread}");
+        let expected = 0.005 + 0.1 * (0.1 + 0.5 * 0.1 / 13.8f64.sqrt());
+        assert!((spread - expected).abs() < 1e-12, "{spread}");
         let prediction = Pose2::new(3.0, 1.0, 0.4);
         let at = |dx: f64| Pose2::new(3.0 + dx, 1.0, 1.2);
-        assert!(!speed_contradicts(&prediction, &at(0.07), spread));
-        assert!(speed_contradicts(&prediction, &at(-0.08), spread));
+        assert!(!speed_contradicts(&prediction, &at(0.06), spread));
+        assert!(speed_contradicts(&prediction, &at(-0.062), spread));
         assert!(speed_contradicts(&prediction, &at(-0.84), spread));
         // The heading is the fit's: the prediction holds none.
         assert!(!speed_contradicts(
@@ -378,6 +392,31 @@ mod tests {
             &Pose2::new(3.0, 1.0, -2.0),
             spread
         ));
+    }
+
+    /// A robot's largest acceleration bounds the speed's spread at the point the judgement
+    /// stops at: two scans a second, the speed observed to 1 cm/s, then two steps unobserved
+    /// (the simulated ring's bare hallway): a pose 0.99 m behind the prediction of a robot
+    /// going 0.5 m/s would take a speed change of 2 m/s in half a second, and contradicts
+    /// the speed (with the largest acceleration as one standard deviation it did not: the
+    /// spread had grown to 0.48 m); one 0.4 m off, a robot that braked hard, does not.
+    #[test]
+    fn the_largest_acceleration_bounds_the_speeds_spread() {
+        let mut speed = crate::tracking::speed::ObservedSpeed::default();
+        speed.weigh(Some(0.005), Some(0.5));
+        speed.weigh(None, Some(0.5));
+        speed.weigh(None, Some(0.5));
+        let spread = speed_spread_m(0.5, speed.speed_sigma_m_s().expect("a spread"));
+        let prediction = Pose2::new(3.0, 1.0, 0.0);
+        let behind = |m: f64| Pose2::new(3.0 - m, 1.0, 0.0);
+        assert!(
+            speed_contradicts(&prediction, &behind(0.99), spread),
+            "{spread}"
+        );
+        assert!(
+            !speed_contradicts(&prediction, &behind(0.4), spread),
+            "{spread}"
+        );
     }
 
     #[test]

@@ -1,7 +1,7 @@
 //! The speed last observed ([`ObservedSpeed`]): the motion a robot keeps along directions ICP
 //! cannot observe, and the time between scans that tells a gap in the log from jitter.
 
-use super::params::PRIOR_ACCEL_M_S2;
+use super::estimator::acceleration_sigma_m_s2;
 use crate::geometry::Pose2;
 
 /// How many recent time steps give the typical one.
@@ -236,8 +236,8 @@ impl ObservedSpeed {
     /// (`None` where the stamps do not time it): the spread along its weakest direction
     /// (`observed_sigma_m`, metres) of a step that set the speed ([`ObservedSpeed::record`]),
     /// over its time, sets the speed's variance; any other step grows it by what a robot's
-    /// acceleration ([`PRIOR_ACCEL_M_S2`]) changes a speed by over its time, `(a·dt)²`, each
-    /// step on its own (a random walk); an untimed step leaves the speed's spread unknown. A
+    /// acceleration ([`acceleration_sigma_m_s2`], one standard deviation) changes a speed by
+    /// over its time, `(σa·dt)²`, each step on its own (a random walk); an untimed step leaves the speed's spread unknown. A
     /// weakly observed step tells nothing: along a corridor its few points pull it where the
     /// map ends, and counting them narrowed the speed onto a stale one (the simulated
     /// corridor with a 360° laser every 2nd scan: 0.27 → 0.45 m).
@@ -248,7 +248,9 @@ impl ObservedSpeed {
         };
         self.speed_var = match observed_sigma_m {
             Some(sigma) => Some((sigma / dt).powi(2)),
-            None => self.speed_var.map(|v| v + (PRIOR_ACCEL_M_S2 * dt).powi(2)),
+            None => self
+                .speed_var
+                .map(|v| v + (acceleration_sigma_m_s2() * dt).powi(2)),
         };
     }
 
@@ -351,11 +353,12 @@ mod tests {
         // A step observed to 5 mm over 0.1 s: the speed to 0.05 m/s.
         speed.weigh(Some(0.005), Some(0.1));
         assert!((speed.speed_sigma_m_s().unwrap() - 0.05).abs() < 1e-12);
-        // Three steps of 0.1 s without evidence: (a·dt)² each, 0.0025 + 3 × 0.01 (m/s)².
+        // Three steps of 0.1 s without evidence: (σa·dt)² each, 0.0025 + 3 × 0.01 / 13.8 (m/s)².
         for _ in 0..3 {
             speed.weigh(None, Some(0.1));
         }
-        let grown = (0.0025 + 3.0 * (PRIOR_ACCEL_M_S2 * 0.1_f64).powi(2)).sqrt();
+        let grown = (0.0025 + 3.0 * (acceleration_sigma_m_s2() * 0.1).powi(2)).sqrt();
+        assert!((grown - (0.0025f64 + 0.03 / 13.8).sqrt()).abs() < 1e-12);
         assert!((speed.speed_sigma_m_s().unwrap() - grown).abs() < 1e-12);
         // An untimed step leaves it unknown until the next observed step sets it anew.
         speed.weigh(None, None);
