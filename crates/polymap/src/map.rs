@@ -185,6 +185,8 @@ pub struct GlobalMap {
     slots: Vec<(u32, Option<MapSegment>)>,
     /// The observation record of each slot's segment (parallel to `slots`).
     observed: Vec<Observations>,
+    /// The main directions the last merge used, radians.
+    held: Vec<f64>,
     /// The pose of the last scan that observed the map (see [`crate::observe`]).
     observed_from: Option<crate::geometry::Pose2>,
     free: Vec<u32>,
@@ -207,6 +209,7 @@ impl GlobalMap {
         GlobalMap {
             slots: Vec::new(),
             observed: Vec::new(),
+            held: Vec::new(),
             observed_from: None,
             free: Vec::new(),
             grid: SegmentIndex::new(cell_m, reach_m),
@@ -290,6 +293,16 @@ impl GlobalMap {
     pub fn observations(&self, id: SegmentId) -> Option<Observations> {
         self.get(id)?;
         self.observed.get(id.slot as usize).copied()
+    }
+
+    /// The main directions the last merge used, radians.
+    pub fn held_directions(&self) -> &[f64] {
+        &self.held
+    }
+
+    /// Keeps the main directions a merge used, radians.
+    pub fn hold_directions(&mut self, directions_rad: &[f64]) {
+        self.held = directions_rad.to_vec();
     }
 
     /// The observation record of a segment to update, if it is still in the map.
