@@ -185,7 +185,7 @@ pub struct GlobalMap {
     slots: Vec<(u32, Option<MapSegment>)>,
     /// The observation record of each slot's segment (parallel to `slots`).
     observed: Vec<Observations>,
-    /// The main directions the last merge used, radians.
+    /// The main directions the last merge used, radians in `[0, π)`, map frame.
     held: Vec<f64>,
     /// The pose of the last scan that observed the map (see [`crate::observe`]).
     observed_from: Option<crate::geometry::Pose2>,
@@ -295,12 +295,13 @@ impl GlobalMap {
         self.observed.get(id.slot as usize).copied()
     }
 
-    /// The main directions the last merge used, radians.
+    /// The main directions the last merge used, radians in `[0, π)`, map frame (see
+    /// [`crate::directions::recent_main_directions`]); none before the first.
     pub fn held_directions(&self) -> &[f64] {
         &self.held
     }
 
-    /// Keeps the main directions a merge used, radians.
+    /// Keeps the main directions a merge used, radians in `[0, π)`, map frame.
     pub fn hold_directions(&mut self, directions_rad: &[f64]) {
         self.held = directions_rad.to_vec();
     }

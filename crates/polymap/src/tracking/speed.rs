@@ -237,10 +237,11 @@ impl ObservedSpeed {
     /// (`observed_sigma_m`, metres) of a step that set the speed ([`ObservedSpeed::record`]),
     /// over its time, sets the speed's variance; any other step grows it by what a robot's
     /// acceleration ([`acceleration_sigma_m_s2`], one standard deviation) changes a speed by
-    /// over its time, `(σa·dt)²`, each step on its own (a random walk); an untimed step leaves the speed's spread unknown. A
-    /// weakly observed step tells nothing: along a corridor its few points pull it where the
-    /// map ends, and counting them narrowed the speed onto a stale one (the simulated
-    /// corridor with a 360° laser every 2nd scan: 0.27 → 0.45 m).
+    /// over its time, `(σa·dt)²`, each step on its own (a random walk); an untimed step
+    /// leaves the speed's spread unknown. A weakly observed step tells nothing: along a
+    /// corridor its few points pull it where the map ends, and counting them narrowed the
+    /// speed onto a stale one (the simulated corridor with a 360° laser every 2nd scan:
+    /// 0.27 → 0.45 m).
     pub(super) fn weigh(&mut self, observed_sigma_m: Option<f64>, dt_s: Option<f64>) {
         let Some(dt) = dt_s.filter(|&dt| dt > 0.0) else {
             self.speed_var = None;
