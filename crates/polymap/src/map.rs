@@ -303,7 +303,8 @@ impl GlobalMap {
 
     /// Keeps the main directions a merge used, radians in `[0, π)`, map frame.
     pub fn hold_directions(&mut self, directions_rad: &[f64]) {
-        self.held = directions_rad.to_vec();
+        self.held.clear();
+        self.held.extend_from_slice(directions_rad);
     }
 
     /// The observation record of a segment to update, if it is still in the map.

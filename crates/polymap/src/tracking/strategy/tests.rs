@@ -454,32 +454,10 @@ fn a_turn_on_the_spot_after_a_stop_is_found_within_the_robots_reach() {
 /// dropped: FR079 bursts of 5-15 scans, seed 1, 0.764 -> 0.074 m).
 #[test]
 fn after_a_gap_the_window_reaches_as_far_as_the_robot_can_go_in_its_time() {
-    let world = unlike_room().to_vec();
-    let map = map_of(&world, 0.5);
     let before = Pose2::new(3.0, 3.0, 0.0);
     let truth = Pose2::new(3.5, 3.35, (-100f64).to_radians());
-    let tracking = TrackParams {
-        corner_hypotheses: false,
-        ..TrackParams::default()
-    };
-    // Without the recovery (a search of the whole circle when under 15 % of the points
-    // fit), so that only the window can find the pose.
-    let starts = MapperParams {
-        recover_below_inlier_share: 0.0,
-        ..MapperParams::default()
-    };
-    let still = RecentMotion::default();
-    let scene = (&world[..], &map, truth, before, 0);
     for (after_gap, found) in [(Some(before), true), (None, false)] {
-        let (near, e, verdict) = track_timed(
-            scene,
-            &tracking,
-            &starts,
-            &still,
-            before,
-            Some(3.0),
-            after_gap,
-        );
+        let (near, e, verdict) = track_after_gap(truth, before, before, 3.0, after_gap);
         assert_eq!(near, found, "after a gap {after_gap:?}: {e:?} {verdict:?}");
         assert!(verdict.searched, "{verdict:?}");
     }
@@ -491,12 +469,30 @@ fn after_a_gap_the_window_reaches_as_far_as_the_robot_can_go_in_its_time() {
 /// the window around the guess; spanning the one step as well finds it.
 #[test]
 fn after_a_gap_the_robot_may_have_moved_one_step_only() {
-    let world = unlike_room().to_vec();
-    let map = map_of(&world, 0.5);
     let before = Pose2::new(1.5, 2.0, 0.0);
     let one_step = Pose2::new(2.5, 2.0, 0.0);
     let guess = Pose2::new(5.5, 2.0, 0.0);
     let truth = Pose2::new(2.6, 2.4, 25f64.to_radians());
+    // The one step's pose the guess itself: the window around the guess alone.
+    for (after_gap, found) in [(one_step, true), (guess, false)] {
+        let (near, e, verdict) = track_after_gap(truth, guess, before, 9.0, Some(after_gap));
+        assert_eq!(near, found, "one step at {after_gap:?}: {e:?} {verdict:?}");
+    }
+}
+
+/// [`track_timed`] in [`unlike_room`] for a scan at `truth` guessed at `guess`, `dt_s` after
+/// the last `ok` scan at `before` (the anchor), with no recent motion, `after_gap` as given,
+/// and neither corner hypotheses nor the recovery (a search of the whole circle when under
+/// 15 % of the points fit): only the starts and the window can find the pose.
+fn track_after_gap(
+    truth: Pose2,
+    guess: Pose2,
+    before: Pose2,
+    dt_s: f64,
+    after_gap: Option<Pose2>,
+) -> (bool, Pose2, Tracking) {
+    let world = unlike_room().to_vec();
+    let map = map_of(&world, 0.5);
     let tracking = TrackParams {
         corner_hypotheses: false,
         ..TrackParams::default()
@@ -507,19 +503,15 @@ fn after_a_gap_the_robot_may_have_moved_one_step_only() {
     };
     let still = RecentMotion::default();
     let scene = (&world[..], &map, truth, guess, 0);
-    // The one step's pose the guess itself: the window around the guess alone.
-    for (after_gap, found) in [(one_step, true), (guess, false)] {
-        let (near, e, verdict) = track_timed(
-            scene,
-            &tracking,
-            &starts,
-            &still,
-            before,
-            Some(9.0),
-            Some(after_gap),
-        );
-        assert_eq!(near, found, "one step at {after_gap:?}: {e:?} {verdict:?}");
-    }
+    track_timed(
+        scene,
+        &tracking,
+        &starts,
+        &still,
+        before,
+        Some(dt_s),
+        after_gap,
+    )
 }
 
 /// A robot that turned 130° lately and now turns back: the constant-velocity guess is
