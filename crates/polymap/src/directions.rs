@@ -81,37 +81,14 @@ pub struct MainDirections {
 }
 
 /// The main directions for scan `t`: those of `G_{t-1}(tm)`, the map's segments born in the
-/// last `params.time_memory_scans` scans (the paper's `tm`); a direction the last merge used
-/// is held while a peak's refinement stays within half a bin of it ([`GlobalMap::held_directions`]).
-///
-/// Held, because the refinement echoes: every merge puts its segment on a main direction and is
-/// born anew, so the recent segments repeat the direction they were put on, and only pieces
-/// that merged with nothing move it; while they stay recent their pull adds up scan after scan,
-/// and the turn is kept when they age out (the simulated `hall360`: a 1.9 m piece seen 1.6°
-/// off turned a main direction 0.8° in 13 scans, the scans then tracked 5–12 % long). Below
-/// half a bin, the histogram's own resolution, a refinement says nothing the peak did not; a
-/// direction the walls in view turn by more follows them.
+/// last `params.time_memory_scans` scans (the paper's `tm`).
 pub fn recent_main_directions(
     map: &mut GlobalMap,
     t: u32,
     params: &DirectionParams,
 ) -> MainDirections {
     let recent = map.born_since(t.saturating_sub(params.time_memory_scans));
-    let mut md = main_directions(recent.iter(), params);
-    let hold_within_rad = 0.5 * PI / params.bins.max(1) as f64;
-    for d in &mut md.directions_rad {
-        let gap = |h: &f64| angle_between_directions_rad(*h, *d);
-        if let Some(held) = map
-            .held_directions()
-            .iter()
-            .filter(|h| gap(h) <= hold_within_rad)
-            .min_by(|a, b| gap(a).total_cmp(&gap(b)))
-        {
-            *d = *held;
-        }
-    }
-    map.hold_directions(&md.directions_rad);
-    md
+    main_directions(recent.iter(), params)
 }
 
 /// Computes the main directions of a set of segments (already restricted to `G_{t-1}(tm)`).
@@ -241,57 +218,10 @@ fn refine_peak<'a>(
 mod tests {
     use super::*;
     use crate::geometry::Vec2;
-    use crate::map::MapSegment;
 
     fn at(deg: f64, len: f64) -> Segment {
         let a = deg.to_radians();
         Segment::new(Vec2::ZERO, Vec2::new(a.cos(), a.sin()) * len)
-    }
-
-    /// Walls on the axes; a 3 m piece seen once 1.5° off the vertical pulls the refinement
-    /// (by about 0.1°) but the direction is held; walls turned 2° turn it.
-    #[test]
-    fn a_direction_is_held_while_its_refinement_stays_within_half_a_bin() {
-        let mut map = GlobalMap::default();
-        let wall = |deg: f64, len: f64, at: f64, born: u32| MapSegment {
-            segment: Segment::new(Vec2::new(at, at), Vec2::new(at, at) + at_angle(deg, len)),
-            born_scan: born,
-        };
-        for k in 0..4 {
-            map.insert(wall(0.0, 10.0, k as f64, 0));
-            map.insert(wall(90.0, 10.0, k as f64 + 0.5, 0));
-        }
-        let params = DirectionParams::default();
-        let sorted = |mut d: Vec<f64>| {
-            d.sort_by(f64::total_cmp);
-            d
-        };
-        let first = sorted(recent_main_directions(&mut map, 1, &params).directions_rad);
-        assert_eq!(first.len(), 2);
-        map.insert(wall(91.5, 3.0, 20.0, 1));
-        // Refined alone, the piece turns the vertical direction by about 0.1°...
-        let refined = sorted(main_directions(map.born_since(0).iter(), &params).directions_rad);
-        let pull = refined[1] - first[1];
-        assert!(pull > 0.0 && pull < 0.5f64.to_radians(), "{refined:?}");
-        // ...held, it does not.
-        let held = sorted(recent_main_directions(&mut map, 2, &params).directions_rad);
-        assert_eq!(held, first);
-        // The vertical walls seen again turned by 2° (born at scan 2): followed.
-        for k in 0..4 {
-            map.insert(wall(92.0, 10.0, k as f64 + 30.0, 2));
-        }
-        let turned = recent_main_directions(&mut map, 3, &params).directions_rad;
-        let vertical = turned
-            .iter()
-            .copied()
-            .find(|d| d.to_degrees() > 45.0)
-            .unwrap();
-        assert!(vertical.to_degrees() > 91.0, "{turned:?}");
-    }
-
-    fn at_angle(deg: f64, len: f64) -> Vec2 {
-        let a = deg.to_radians();
-        Vec2::new(a.cos(), a.sin()) * len
     }
 
     #[test]

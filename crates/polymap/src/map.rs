@@ -185,8 +185,6 @@ pub struct GlobalMap {
     slots: Vec<(u32, Option<MapSegment>)>,
     /// The observation record of each slot's segment (parallel to `slots`).
     observed: Vec<Observations>,
-    /// The main directions the last merge used, radians in `[0, π)`, map frame.
-    held: Vec<f64>,
     /// The pose of the last scan that observed the map (see [`crate::observe`]).
     observed_from: Option<crate::geometry::Pose2>,
     free: Vec<u32>,
@@ -209,7 +207,6 @@ impl GlobalMap {
         GlobalMap {
             slots: Vec::new(),
             observed: Vec::new(),
-            held: Vec::new(),
             observed_from: None,
             free: Vec::new(),
             grid: SegmentIndex::new(cell_m, reach_m),
@@ -293,18 +290,6 @@ impl GlobalMap {
     pub fn observations(&self, id: SegmentId) -> Option<Observations> {
         self.get(id)?;
         self.observed.get(id.slot as usize).copied()
-    }
-
-    /// The main directions the last merge used, radians in `[0, π)`, map frame (see
-    /// [`crate::directions::recent_main_directions`]); none before the first.
-    pub fn held_directions(&self) -> &[f64] {
-        &self.held
-    }
-
-    /// Keeps the main directions a merge used, radians in `[0, π)`, map frame.
-    pub fn hold_directions(&mut self, directions_rad: &[f64]) {
-        self.held.clear();
-        self.held.extend_from_slice(directions_rad);
     }
 
     /// The observation record of a segment to update, if it is still in the map.
