@@ -46,9 +46,10 @@ impl Attempt<'_> {
     }
 
     /// Where ICP observed the step along an axis only weakly and put it away from the
-    /// fallback of the unobserved (the last observed motion), ICP from that fallback; its pose
-    /// when it fits at least as many points and agrees across the axis and in rotation: a
-    /// weak observation that fits no better does not overrule the robot's speed.
+    /// fallback of the unobserved (the last observed motion), ICP from the fallback's place
+    /// along the axis, at the pose's heading; its pose when it fits at least as many points and
+    /// agrees across the axis and in rotation: a weak observation that fits no better does not
+    /// overrule the robot's speed.
     pub(super) fn prior_over_weak(&self, result: &AlignResult) -> Option<AlignResult> {
         let (input, tracking) = (self.input, self.config.tracking);
         let info = result.translation_information;
@@ -66,7 +67,16 @@ impl Attempt<'_> {
         if apart.dot(axis).abs() <= PRIOR_OVER_WEAK_M {
             return None;
         }
-        let prior = self.run_near(input.unobserved_to);
+        // The fallback along the axis only: its heading carries the last observed step's
+        // turn, stale where that step turned (a corner before a corridor), and the walls
+        // observe the heading.
+        let moved = axis * apart.dot(axis);
+        let start = result.map_from_robot;
+        let prior = self.run_near(Pose2::new(
+            start.x_m + moved.x,
+            start.y_m + moved.y,
+            start.theta_rad,
+        ));
         (prior.inliers >= result.inliers && agrees_across(&prior, result, axis)).then_some(prior)
     }
 

@@ -1306,6 +1306,47 @@ fn a_fast_robot_put_near_no_motion_on_weak_evidence_is_called_slowed() {
     assert!(!weakly.carries_tracking());
 }
 
+/// The speed last observed was set by a step that turned (ACES every 10th scan, scan 93: a
+/// 43° turn into a corridor, then seven steps observed only weakly along it): the fallback of
+/// the unobserved carries that turn, and ICP started from it, turned 43° from a scan whose
+/// heading the walls observe, fitted 22 correspondences of 110 and never replaced a step held
+/// at no motion by one far point (scans 100, 103, 104: 0.55-0.68 m each, tracked 0.0 m). ICP
+/// starts from the fallback along the weak axis only, at the pose's own heading.
+#[test]
+fn a_weak_step_is_checked_at_the_fallback_along_its_axis_not_at_the_fallbacks_turn() {
+    let world = framed_corridor();
+    let map = map_of(&world, 0.5);
+    let truth = Pose2::new(0.8, 0.0, 0.0);
+    let scene = (&world[..], &map, truth, Pose2::IDENTITY, 0);
+    with_attempt(
+        AlignMethod::PointToSegment,
+        scene,
+        &TrackParams::default(),
+        |t| {
+            let stopped = weakly_along_x(t.run(&[], Pose2::IDENTITY), 2.0);
+            assert!(stopped.map_from_robot.x_m.abs() < 0.05, "{stopped:?}");
+            let checked = |unobserved_to: Pose2| {
+                let input = TrackInput {
+                    unobserved_to,
+                    ..*t.input
+                };
+                let attempt = Attempt {
+                    input: &input,
+                    ..*t
+                };
+                attempt.prior_over_weak(&stopped)
+            };
+            for turn_deg in [0.0, 43.0, -43.0] {
+                let fallback = Pose2::new(0.8, 0.0, f64::to_radians(turn_deg));
+                let found = checked(fallback).expect("ICP from the fallback along the axis");
+                let e = truth.between(&found.map_from_robot);
+                assert!(e.translation().length() < 0.05, "{turn_deg}°: {e:?}");
+                assert!(e.theta_rad.abs() < 0.01, "{turn_deg}°: {e:?}");
+            }
+        },
+    );
+}
+
 #[test]
 fn a_fast_robot_in_a_weakly_observed_corridor_is_tracked_along_it() {
     // End to end: the framed corridor with four shallow recesses 0.8 m apart on one wall.
