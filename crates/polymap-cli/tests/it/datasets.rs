@@ -257,8 +257,8 @@ fn mean_relation_error(run: &std::path::Path, relations: &std::path::Path) -> f6
 /// default run and four nuisance variants (point spacing and rotation search points, as
 /// `scripts/sweep` varies them): the phase is scored on 16 relations, and one run of it may
 /// break elsewhere (near the log's end a few weak steps tracked short put two of the 16
-/// relations 2.5 m off: 0.34 m) while the others track (0.03-0.18 m, median 0.13 m). Whole log
-/// five times, release build: about 10 s.
+/// relations 2.5 m off: 0.34 m) while the others stay under the bound (0.03-0.18 m, median
+/// 0.13 m). Whole log five times, release build: about 10 s.
 #[test]
 fn intel_every_tenth_scan_drives_on_after_turns_on_the_spot() {
     let Some(dir) = datasets() else {
