@@ -254,8 +254,8 @@ fn mean_relation_error(run: &std::path::Path, relations: &std::path::Path) -> f6
 /// on into corridors that ICP observes only weakly along. Taking the turn's standstill as the
 /// speed there holds the robot at every junction (6.24 m mean relation error, the map called
 /// inconsistent); the speed driven before the turn keeps it. Judged by the median over the
-/// default run and four nuisance variants (point spacing and rotation search points, as
-/// `scripts/sweep` varies them): the phase is scored on 16 relations, and one run of it may
+/// default run and four nuisance variants (small changes of the point spacing and of the
+/// rotation search points): the phase is scored on 16 relations, and one run of it may
 /// break elsewhere (near the log's end a few weak steps tracked short put two of the 16
 /// relations 2.5 m off: 0.34 m) while the others stay under the bound (0.03-0.18 m, median
 /// 0.13 m). Whole log five times, release build: about 10 s.
