@@ -63,15 +63,15 @@ impl Attempt<'_> {
             return None;
         }
         let axis = info.weakest_axis();
-        let apart = input.unobserved_to.translation() - result.map_from_robot.translation();
-        if apart.dot(axis).abs() <= PRIOR_OVER_WEAK_M {
+        let start = result.map_from_robot;
+        let along = (input.unobserved_to.translation() - start.translation()).dot(axis);
+        if along.abs() <= PRIOR_OVER_WEAK_M {
             return None;
         }
         // The fallback along the axis only: its heading carries the last observed step's
         // turn, stale where that step turned (a corner before a corridor), and the walls
         // observe the heading.
-        let moved = axis * apart.dot(axis);
-        let start = result.map_from_robot;
+        let moved = axis * along;
         let prior = self.run_near(Pose2::new(
             start.x_m + moved.x,
             start.y_m + moved.y,

@@ -54,8 +54,8 @@
 //!    fallback, is replaced by ICP from the fallback's place along that direction (at the
 //!    pose's own heading) when that fits as well ([`Attempt::prior_over_weak`]). When that
 //!    did not win (or was not tried, the pose lying near the fallback), the weak axis is the
-//!    fit's only doubt (its verdict would be
-//!    `weakly_observed`), the pose lies within [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest
+//!    fit's only doubt (its verdict would be `weakly_observed`), the pose lies within
+//!    [`STOPPED_BELOW_SHARE_OF_STEP`] of the longest
 //!    recent step from the anchor (ahead, in the sense of the speed last observed where that
 //!    moves at least `tracking.search.search_above_step_m` along the axis), and that
 //!    step is at least `tracking.search.search_above_step_m` (a fast robot that ICP, on weak
