@@ -311,6 +311,7 @@ fn map_source(
         stream: !source.is_regular_file(),
         stop,
         mapper: saved.map(|s| s.mapper(config, a.initial_pose)),
+        record_tries: a.diagnostics,
     };
     // A run on a saved map is placed by its first confident scan (or by --initial-pose); one
     // that is not after `tracking.start_search_scans` scans stops, rather than map on blind.

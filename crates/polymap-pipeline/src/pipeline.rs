@@ -48,6 +48,10 @@ pub struct PipelineOptions {
     /// configuration); a mapper on a saved map ([`Mapper::on_map`]) to continue it or to
     /// localize in it. Its configuration must be the run's.
     pub mapper: Option<Mapper>,
+    /// Keep every ICP run tracking makes for a scan in its diagnostics
+    /// ([`ScanDiagnostics::tries`], [`Mapper::record_tries`]):
+    /// for a caller that writes them.
+    pub record_tries: bool,
 }
 
 /// One mapped scan, as the caller's callback sees it.
@@ -191,10 +195,11 @@ where
             .map_err(PipelineError::Spawn)?
     };
     // The saved map's mapper moves in: a copy of a large map's index doubled its memory.
-    let mapper = options
+    let mut mapper = options
         .mapper
         .take()
         .unwrap_or_else(|| Mapper::new(config.clone()));
+    mapper.record_tries(options.record_tries);
     let mut rec = Recorder::new(mapper, &options);
     // On an error this returns at once, dropping `rx`: the reading thread ends at its next
     // hand-over and is not waited for (it may be blocked reading a stream).

@@ -430,3 +430,36 @@ fn a_bare_corridor_is_warned_of_as_weak_stretches() {
         }
     }
 }
+
+/// With `--diagnostics`, each tracked scan's line holds every pose tracking tried for it
+/// (`tries`: where ICP converged, its inliers and correspondences), the pose taken among them,
+/// which `scripts/tries` compares with a reference.
+#[test]
+fn diagnostics_hold_the_poses_tracking_tried_for_each_scan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("run");
+    let o = polymap(&[
+        "map",
+        "--max-scans",
+        "80",
+        "--diagnostics",
+        "-o",
+        out.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let text = fs::read_to_string(out.join("diagnostics.jsonl")).unwrap();
+    let mut tracked = 0;
+    for line in text.lines().skip(1) {
+        let row: serde_json::Value = serde_json::from_str(line).unwrap();
+        let d = &row["diagnostics"];
+        let taken = &d["align"]["map_from_robot"];
+        let tries = d["tries"].as_array().expect("tries on a tracked scan");
+        assert!(tries.iter().any(|t| &t["map_from_robot"] == taken), "{line}");
+        for t in tries {
+            assert!(t["inliers"].as_u64() <= t["correspondences"].as_u64(), "{line}");
+        }
+        tracked += 1;
+    }
+    assert_eq!(tracked, 79);
+}

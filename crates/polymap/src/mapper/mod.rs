@@ -24,8 +24,8 @@ use crate::observe::observe_scan;
 use crate::polyline::group_polylines;
 use crate::scan::{PreparedScan, RangeScan};
 use crate::tracking::{
-    PoseCovariance, Reason, ScanNumber, TrackedScan, Tracker, Tracking, TrackingSummary, Verdict,
-    better, verdict,
+    PoseCovariance, Reason, ScanNumber, TrackedScan, Tracker, Tracking, TrackingSummary, TriedPose,
+    Verdict, better, verdict,
 };
 
 /// What one scan did.
@@ -61,6 +61,13 @@ pub struct ScanDiagnostics {
     /// ([`TrackedScan::covariance`]).
     #[serde(default)]
     pub pose_covariance: PoseCovariance,
+    /// Every ICP run tracking made for the scan ([`Tracker::take_tries`]), where the mapper
+    /// records them ([`Mapper::record_tries`]): the pose taken among the candidates it was
+    /// preferred to, each where ICP converged (map frame) with its inliers and
+    /// correspondences; empty where there was nothing to align to, and for a scan placed on a
+    /// saved map.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub tries: Vec<TriedPose>,
 }
 
 /// Wall-clock seconds spent in each stage of one [`Mapper::push`].
@@ -210,6 +217,13 @@ impl Mapper {
             fused: None,
             config,
         }
+    }
+
+    /// Whether each scan's diagnostics keep every ICP run tracking made for it
+    /// ([`ScanDiagnostics::tries`]; off by default: a caller that writes no diagnostics need
+    /// not gather them).
+    pub fn record_tries(&mut self, on: bool) {
+        self.tracker.record_tries(on);
     }
 
     /// A mapper that starts from a saved map: with [`MapRole::Build`] it goes on mapping (the
@@ -446,6 +460,7 @@ impl Mapper {
             covariance,
         } = tracked;
         let placed = self.placement == Placement::Placed;
+        let tries = self.tracker.take_tries();
         let aligned = Instant::now();
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,
@@ -521,6 +536,7 @@ impl Mapper {
             after_gap,
             off_odometry,
             pose_covariance: covariance,
+            tries,
         };
         // A localize run's own tracking takes the scan last (outside the stages' times).
         if let Some(own) = self.own.as_mut() {

@@ -82,6 +82,49 @@ fn paper_config_tracks_and_keeps_the_map_small() {
     assert!(mapper.map().len() <= 24, "{} segments", mapper.map().len());
 }
 
+/// Every ICP run tracking makes for a scan is in its diagnostics (`tries`) where asked for, the
+/// pose taken among them: a scan after a jump the prediction does not foresee is searched, and
+/// the starts it passed over are there beside the pose taken.
+#[test]
+fn a_scans_diagnostics_hold_every_pose_tracking_tried_the_one_taken_among_them() {
+    let walls = room();
+    let mut quiet = Mapper::new(Config::default());
+    quiet.push(&scan_from(&walls, &Pose2::IDENTITY, 0.0));
+    let u = quiet.push(&scan_from(&walls, &Pose2::new(0.05, 0.0, 0.0), 0.1));
+    assert!(u.diagnostics.align.is_some() && u.diagnostics.tries.is_empty());
+    let mut mapper = Mapper::new(Config::default());
+    mapper.record_tries(true);
+    let first = mapper.push(&scan_from(&walls, &Pose2::IDENTITY, 0.0));
+    assert!(
+        first.diagnostics.tries.is_empty(),
+        "nothing to align the first scan to"
+    );
+    let mut most = 0;
+    for i in 1..30 {
+        // 5 cm a scan, then 1.2 m sideways and 40° in one step.
+        let jump = if i >= 20 {
+            Pose2::new(0.0, 1.2, 0.7)
+        } else {
+            Pose2::IDENTITY
+        };
+        let truth = jump.compose(&Pose2::new(0.05 * i as f64, 0.0, 0.0));
+        let u = mapper.push(&scan_from(&walls, &truth, i as f64 * 0.1));
+        let taken = u
+            .diagnostics
+            .align
+            .expect("a map to align to")
+            .map_from_robot;
+        let tries = &u.diagnostics.tries;
+        assert!(
+            tries.iter().any(|t| t.map_from_robot == taken),
+            "scan {i}: the pose taken {taken:?} is not among {tries:?}"
+        );
+        assert!(tries.iter().all(|t| t.inliers <= t.correspondences));
+        most = most.max(tries.len());
+    }
+    assert!(most >= 2, "no scan tried more than one pose");
+}
+
 #[test]
 fn odometry_prior_starts_in_the_odometry_frame() {
     let mut config = Config::default();

@@ -1,8 +1,8 @@
-//! The state tracking carries from scan to scan ([`Tracker`]): the last poses and the speed
-//! last observed (the motion prior's guess and anchor), the last `ok` scan (the reach and the
-//! restart after lost scans), the recent motion, the loose points, the lost streak, and the
-//! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
-//! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
+//! The state tracking carries from scan to scan ([`Tracker`]): the last poses and the speed last
+//! observed (the motion prior's guess and anchor), the last `ok` scan (the reach and the restart
+//! after lost scans), the recent motion, the loose points, the lost streak, and the run's
+//! [`TrackingSummary`]. Each scan's pose comes from [`track_scan`](super::track_scan) with that
+//! state; a loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
 use super::estimator::{
     MotionModel, PoseCovariance, covariance_of, fuse, prior_information, speed_spread_m,
@@ -11,7 +11,7 @@ use super::estimator::{
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
-use super::strategy::{TrackConfig, TrackInput, track_scan};
+use super::strategy::{TrackConfig, TrackInput, TriedPose, track_scan_tried};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict};
 use crate::align::{AlignParams, AlignResult, thin_points};
@@ -89,6 +89,10 @@ pub struct Tracker {
     recent: RecentMotion,
     lost_streak: u32,
     summary: TrackingSummary,
+    /// The ICP runs of the last scan [`Tracker::track`] aligned ([`Tracker::take_tries`]),
+    /// where [`Tracker::record_tries`] asked for them.
+    tries: Vec<TriedPose>,
+    record_tries: bool,
 }
 
 /// The motion prior's poses for one scan, map frame, and the log's odometry as a witness.
@@ -121,17 +125,20 @@ impl Tracker {
             recent: RecentMotion::default(),
             lost_streak: 0,
             summary: TrackingSummary::default(),
+            tries: Vec::new(),
+            record_tries: false,
         }
     }
 
-    /// Tracks scan `at` in `map` (map frame): the motion prior's guess, ICP from its starts,
-    /// the window search, the hypotheses and the verdict ([`track_scan`]); then takes the scan
-    /// into the state (its pose, speed, loose points, the summary).
+    /// Tracks scan `at` in `map` (map frame): the motion prior's guess, ICP from its starts, the
+    /// window search, the hypotheses and the verdict ([`track_scan`](super::track_scan)); then
+    /// takes the scan into the state (its pose, speed, loose points, the summary).
     pub fn track(&mut self, at: ScanNumber, scan: &PreparedScan, map: &GlobalMap) -> TrackedScan {
         let prior = self.prior(scan);
         // With odometry, the pose the strategy finds is weighed with the odometry's step
         // (`Attempt::weighed`); a pose already weighed is not fused again below.
-        let (align, tracking) = self.align(scan, map, &prior);
+        let (align, tracking, tries) = self.align(scan, map, &prior);
+        self.tries = tries;
         let weighed = align.is_some_and(|a| a.weighed_prior);
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
@@ -506,15 +513,15 @@ impl Tracker {
         })
     }
 
-    /// The pose of the scan in `map` and the verdict on it, from [`track_scan`] with the
-    /// tracker's state and the motion prior's poses (and the log's odometry as a witness of
-    /// the step); the pose is `None` when there is nothing to align to.
+    /// The pose of the scan in `map` and the verdict on it, from [`track_scan`](super::track_scan)
+    /// with the tracker's state and the motion prior's poses (and the log's odometry as a witness
+    /// of the step); the pose is `None` when there is nothing to align to.
     fn align(
         &self,
         scan: &PreparedScan,
         map: &GlobalMap,
         prior: &Prior,
-    ) -> (Option<AlignResult>, Tracking) {
+    ) -> (Option<AlignResult>, Tracking, Vec<TriedPose>) {
         let Prior {
             guess,
             anchor,
@@ -562,7 +569,20 @@ impl Tracker {
             tracking: &self.tracking,
             starts: &self.starts,
         };
-        track_scan(&input, &config)
+        track_scan_tried(&input, &config, self.record_tries)
+    }
+
+    /// Whether [`Tracker::track`] keeps every ICP run it makes for a scan
+    /// ([`Tracker::take_tries`]); off by default.
+    pub fn record_tries(&mut self, on: bool) {
+        self.record_tries = on;
+    }
+
+    /// Every ICP run the last [`Tracker::track`] made ([`TriedPose`], map frame), in order,
+    /// where [`Tracker::record_tries`] asked for them; empty after taking them, and for a
+    /// scan with nothing to align to.
+    pub fn take_tries(&mut self) -> Vec<TriedPose> {
+        std::mem::take(&mut self.tries)
     }
 }
 

@@ -103,7 +103,9 @@ use super::window::WindowMatch;
 use crate::align::{AlignMethod, AlignParams, AlignResult, PointTargets, thin_points};
 use crate::geometry::{Pose2, Segment, Vec2};
 use crate::map::GlobalMap;
+use serde::{Deserialize, Serialize};
 use starts::loose_targets;
+use std::cell::RefCell;
 
 /// What the tracker knows when it aligns one scan.
 #[derive(Debug, Clone, Copy)]
@@ -223,13 +225,26 @@ fn best_of(results: impl IntoIterator<Item = AlignResult>) -> Option<AlignResult
 /// the window search (see the module); the result is `None` when there is nothing to align
 /// to (an empty map, a scan without points).
 pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResult>, Tracking) {
+    let (result, tracking, _) = track_scan_tried(input, config, false);
+    (result, tracking)
+}
+
+/// [`track_scan`], with every ICP run it made ([`TriedPose`]), in the order it made them, where
+/// `record` asks for them (empty otherwise).
+pub fn track_scan_tried(
+    input: &TrackInput,
+    config: &TrackConfig,
+    record: bool,
+) -> (Option<AlignResult>, Tracking, Vec<TriedPose>) {
     let points = thin_points(input.points_in_robot, config.align.point_spacing_m);
     let targets = loose_targets(input, config);
+    let tries = RefCell::new(Vec::new());
     let attempt = Attempt {
         input,
         config,
         points: &points,
         targets: targets.as_ref(),
+        tries: record.then_some(&tries),
     };
     let Aligned {
         mut result,
@@ -340,7 +355,7 @@ pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResu
     {
         result = Some(held);
     }
-    (result, tracking)
+    (result, tracking, tries.into_inner())
 }
 
 /// Whether `other`, an ICP pose that lost to `kept`, makes the scan's place ambiguous: distinct
@@ -405,6 +420,33 @@ struct Attempt<'a> {
     points: &'a [Vec2],
     /// The loose points ICP may match point to point.
     targets: Option<&'a PointTargets>,
+    /// Where every ICP run of the attempt is recorded ([`TriedPose`]), when asked.
+    tries: Option<&'a RefCell<Vec<TriedPose>>>,
+}
+
+/// One ICP run of a scan's tracking: where it converged and how well the scan fitted there.
+/// Every start, search pose, check along an axis and hypothesis the strategy tried gives one:
+/// the strategy's pose is one of them (the tracker may then move it towards the motion prior,
+/// `tracking/estimator.rs`), the others are the candidates it was preferred to
+/// (`diagnostics.jsonl`: `tries`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct TriedPose {
+    /// The pose ICP converged to, map frame.
+    pub map_from_robot: Pose2,
+    /// Scan points within ICP's robust scale of the map there.
+    pub inliers: usize,
+    /// Scan points with a map segment (or loose point) within ICP's final gate there.
+    pub correspondences: usize,
+}
+
+impl TriedPose {
+    fn of(result: &AlignResult) -> Self {
+        TriedPose {
+            map_from_robot: result.map_from_robot,
+            inliers: result.inliers,
+            correspondences: result.correspondences,
+        }
+    }
 }
 
 impl Attempt<'_> {

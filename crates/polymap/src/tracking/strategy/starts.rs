@@ -5,8 +5,8 @@
 //! points by a face's end that alone pin a direction.
 
 use super::{
-    Attempt, PINNED_BELOW_INFORMATION, RECOVER_TRANSLATION_M, TrackConfig, TrackInput, best_of,
-    better,
+    Attempt, PINNED_BELOW_INFORMATION, RECOVER_TRANSLATION_M, TrackConfig, TrackInput, TriedPose,
+    best_of, better,
 };
 use crate::align::{
     AlignMethod, AlignParams, AlignResult, PointTargets, PosePrior, SearchWindow, SegmentLookup,
@@ -245,7 +245,7 @@ impl Attempt<'_> {
     fn run_with(&self, near: &[Segment], start: Pose2, prior: Option<&PosePrior>) -> AlignResult {
         let (input, params) = (self.input, self.config.align);
         let anchor = input.unobserved_to;
-        match params.method {
+        let result = match params.method {
             AlignMethod::PointToSegment => {
                 let (points, targets) = (self.points, self.targets);
                 align_points_and_loose(points, input.map, targets, start, anchor, prior, params)
@@ -259,6 +259,15 @@ impl Attempt<'_> {
                 prior,
                 params,
             ),
+        };
+        self.tried(&result);
+        result
+    }
+
+    /// Records an ICP run ([`TriedPose`]) where the attempt keeps them.
+    pub(super) fn tried(&self, result: &AlignResult) {
+        if let Some(tries) = self.tries {
+            tries.borrow_mut().push(TriedPose::of(result));
         }
     }
 
@@ -405,6 +414,7 @@ impl Attempt<'_> {
             None,
             params,
         );
+        self.tried(&free);
         (free.weak_directions > 0 && free.weak_directions < 3).then_some(free)
     }
 }

@@ -108,6 +108,7 @@ fn with_attempt_starts<R>(
         config: &config,
         points: &thinned,
         targets: None,
+        tries: None,
     })
 }
 
