@@ -49,8 +49,8 @@ pub struct PipelineOptions {
     /// localize in it. Its configuration must be the run's.
     pub mapper: Option<Mapper>,
     /// Keep every ICP run tracking makes for a scan in its diagnostics
-    /// ([`ScanDiagnostics::tries`], [`Mapper::record_tries`]):
-    /// for a caller that writes them.
+    /// ([`ScanDiagnostics::tries`], [`Mapper::record_tries`]), for a caller that writes them;
+    /// a mapper passed in that already keeps them goes on keeping them.
     pub record_tries: bool,
 }
 
@@ -199,7 +199,9 @@ where
         .mapper
         .take()
         .unwrap_or_else(|| Mapper::new(config.clone()));
-    mapper.record_tries(options.record_tries);
+    if options.record_tries {
+        mapper.record_tries(true);
+    }
     let mut rec = Recorder::new(mapper, &options);
     // On an error this returns at once, dropping `rx`: the reading thread ends at its next
     // hand-over and is not waited for (it may be blocked reading a stream).

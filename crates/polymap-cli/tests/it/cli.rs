@@ -455,9 +455,14 @@ fn diagnostics_hold_the_poses_tracking_tried_for_each_scan() {
         let d = &row["diagnostics"];
         let taken = &d["align"]["map_from_robot"];
         let tries = d["tries"].as_array().expect("tries on a tracked scan");
-        assert!(tries.iter().any(|t| &t["map_from_robot"] == taken), "{line}");
+        assert!(
+            tries.iter().any(|t| &t["map_from_robot"] == taken),
+            "{line}"
+        );
         for t in tries {
-            assert!(t["inliers"].as_u64() <= t["correspondences"].as_u64(), "{line}");
+            let inliers = t["inliers"].as_u64().expect("inliers");
+            let correspondences = t["correspondences"].as_u64().expect("correspondences");
+            assert!(inliers <= correspondences, "{line}");
         }
         tracked += 1;
     }

@@ -207,6 +207,8 @@ impl Tracker {
         tracking: Tracking,
         placed: bool,
     ) -> TrackedScan {
+        // The pose was found elsewhere: no ICP run of this tracker's is its candidate.
+        self.tries.clear();
         let prior = self.prior(scan);
         let covariance = match (align, tracking.verdict) {
             (Some(a), v) if placed && v != Verdict::Lost => {
