@@ -6,7 +6,9 @@ use super::{Attempt, best_of};
 use crate::align::{AlignMethod, AlignResult, Candidate};
 use crate::geometry::{Pose2, normalize_angle_rad};
 use crate::tracking::corner_seeds;
-use crate::tracking::params::{CORNER_RIVAL_BELOW, CORNER_WIN_RATIO, SEARCH_WIN_MARGIN};
+use crate::tracking::params::{
+    CORNER_RIVAL_BELOW, CORNER_RIVAL_TURN_DEG, CORNER_WIN_RATIO, SEARCH_WIN_MARGIN,
+};
 use crate::tracking::params::{MotionPrior, TrackParams};
 use crate::tracking::verdict::{Tracking, Verdict, verdict};
 
@@ -54,10 +56,17 @@ impl Attempt<'_> {
         }))?;
         // A pose away from the prediction needs more evidence than one near it: half again
         // the inliers, a fit that would need no search, and no distinct pose nearly as good
-        // (a building of alike rooms fits a scan turned by a right angle almost as well).
+        // and as plausible a turn from the guess (a building of alike rooms fits a scan turned
+        // by a right angle almost as well; a corridor, turned half round).
+        let turn = |p: &Pose2| normalize_angle_rad(p.theta_rad - input.guess.theta_rad).abs();
+        let as_plausible = |r: &AlignResult| {
+            turn(&r.map_from_robot)
+                <= turn(&best.map_from_robot) + CORNER_RIVAL_TURN_DEG.to_radians()
+        };
         let rival = all.iter().any(|r| {
             tracking.apart(&best.map_from_robot, &r.map_from_robot)
                 && r.inliers as f64 >= CORNER_RIVAL_BELOW * best.inliers as f64
+                && as_plausible(r)
         });
         (self.wins_by_ratio(&best, current) && !rival).then_some(best)
     }

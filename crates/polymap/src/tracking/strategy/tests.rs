@@ -4,8 +4,8 @@ use crate::align::{Candidate, TranslationInformation};
 use crate::extract::{ExtractParams, extract_segments};
 use crate::testutil::{cast_360 as cast, map_of, room, seg};
 use crate::tracking::corner_seeds;
-use crate::tracking::params::CORNER_WIN_RATIO;
 use crate::tracking::params::MotionPrior;
+use crate::tracking::params::{CORNER_RIVAL_BELOW, CORNER_WIN_RATIO};
 use crate::tracking::window::search_window;
 
 /// Tracks a scan taken at `truth` from `guess` (also the anchor), after `lost_streak` scans
@@ -709,6 +709,42 @@ fn a_symmetric_room_gives_no_corner_pose() {
         });
         assert!(half_turn, "{would_win:?}");
         assert!(attempt.icp_from_corners(&current).is_none());
+    });
+}
+
+/// In the same bare room, a scan turned a little from the guess: its mirror image turned half
+/// round fits as well, but is no plausible turn from the guess, so it vetoes nothing and the
+/// corner pose near the guess's heading is taken.
+#[test]
+fn a_mirror_image_turned_half_round_from_the_guess_does_not_veto_the_corner_pose() {
+    let world = [
+        seg(-5.0, -3.0, 5.0, -3.0),
+        seg(5.0, -3.0, 5.0, 3.0),
+        seg(5.0, 3.0, -5.0, 3.0),
+        seg(-5.0, 3.0, -5.0, -3.0),
+    ];
+    let map = map_of(&world, 0.5);
+    let truth = Pose2::new(1.2, 0.6, 30f64.to_radians());
+    let guess = Pose2::new(0.0, 0.0, 0.0);
+    let tracking = TrackParams::default();
+    let scene = (&world[..], &map, truth, guess, 0);
+    with_attempt(AlignMethod::PointToSegment, scene, &tracking, |attempt| {
+        let current = attempt.run(&[], guess);
+        let mirror = Pose2::new(-1.2, -0.6, 210f64.to_radians());
+        let at_mirror = attempt.run_near(mirror);
+        let at_truth = attempt.run_near(truth);
+        assert!(
+            at_mirror.inliers as f64 >= CORNER_RIVAL_BELOW * at_truth.inliers as f64,
+            "the mirror image fits as well: {} against {}",
+            at_mirror.inliers,
+            at_truth.inliers
+        );
+        let taken = attempt.icp_from_corners(&current).expect("a corner pose");
+        let d = truth.between(&taken.map_from_robot);
+        assert!(
+            d.translation().length() < 0.05 && d.theta_rad.abs() < 0.02,
+            "{taken:?} (ICP from the guess: {current:?})"
+        );
     });
 }
 
