@@ -32,8 +32,8 @@ impl Attempt<'_> {
     /// ICP from the best distinct corner hypotheses ([`corner_seeds`]) near the guess that
     /// score above `current`'s pose; the best of them when it has `CORNER_WIN_RATIO`
     /// times `current`'s inliers (plus two), at least `tracking.search.search_below_inlier_share` of
-    /// the points are inliers, and no distinct pose from another hypothesis has
-    /// `CORNER_RIVAL_BELOW` of its inliers.
+    /// the points are inliers, and no distinct pose from another hypothesis, turned at most
+    /// `CORNER_RIVAL_TURN_DEG` farther from the guess, has `CORNER_RIVAL_BELOW` of its inliers.
     pub(super) fn icp_from_corners(&self, current: &AlignResult) -> Option<AlignResult> {
         let input = self.input;
         let tracking = self.config.tracking;

@@ -69,7 +69,8 @@
 //!    ([`corner_seeds`]), scored above ICP's pose on the search raster; the best replaces
 //!    ICP's pose with `CORNER_WIN_RATIO` times its inliers (plus two) when at least
 //!    `tracking.search.search_below_inlier_share` of the points are inliers and no distinct pose
-//!    from another hypothesis has `CORNER_RIVAL_BELOW` of its inliers; with the
+//!    from another hypothesis, as plausible a turn from the guess (`CORNER_RIVAL_TURN_DEG`),
+//!    has `CORNER_RIVAL_BELOW` of its inliers; with the
 //!    odometry prior only a pose turned at most `tracking.odometry.odometry_max_window_deg` from the odometry
 //!    guess (or from the constant-velocity guess where odometry disagrees with it) may win (any
 //!    may veto); with point-to-segment ICP only a pose within reach of the
