@@ -61,7 +61,7 @@ pub struct ScanDiagnostics {
     /// ([`TrackedScan::covariance`]).
     #[serde(default)]
     pub pose_covariance: PoseCovariance,
-    /// Every ICP run tracking made for the scan ([`Tracker::take_tries`]), where the mapper
+    /// Every ICP run tracking made for the scan ([`TrackedScan::tries`]), where the mapper
     /// records them ([`Mapper::record_tries`]): the pose taken among the candidates it was
     /// preferred to, each where ICP converged (map frame) with its inliers and
     /// correspondences; empty where there was nothing to align to, and for a scan placed on a
@@ -458,9 +458,9 @@ impl Mapper {
             after_gap,
             off_odometry,
             covariance,
+            tries,
         } = tracked;
         let placed = self.placement == Placement::Placed;
-        let tries = self.tracker.take_tries();
         let aligned = Instant::now();
         // Segments of a lost scan stay out of the map until tracking finds it again; those of
         // a scan that fits poorly or as well elsewhere would be where the scan is likeliest,

@@ -39,7 +39,7 @@ pub use recent::{LOOSE_OFF_MAP_M, LoosePoints, RecentMotion};
 pub use strategy::{
     PINNED_BELOW_INFORMATION, PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M,
     STOPPED_BELOW_SHARE_OF_STEP, TrackConfig, TrackInput, TriedPose, UNOBSERVED_ACROSS_M,
-    UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan, track_scan_tried,
+    UNOBSERVED_SEED_STEP_M, UNOBSERVED_TURN_DEG, better, track_scan,
 };
 pub use summary::{
     MAX_GAP_SCANS, MAX_WEAK_TRAVEL_PARTS, ODOMETRY_CHECK_MIN_TRAVEL_M, ODOMETRY_WITNESS_WITHIN,

@@ -1,8 +1,8 @@
-//! The state tracking carries from scan to scan ([`Tracker`]): the last poses and the speed last
-//! observed (the motion prior's guess and anchor), the last `ok` scan (the reach and the restart
-//! after lost scans), the recent motion, the loose points, the lost streak, and the run's
-//! [`TrackingSummary`]. Each scan's pose comes from [`track_scan`](super::track_scan) with that
-//! state; a loop correction moves the poses it holds ([`Tracker::apply_correction`]).
+//! The state tracking carries from scan to scan ([`Tracker`]): the last poses and the speed
+//! last observed (the motion prior's guess and anchor), the last `ok` scan (the reach and the
+//! restart after lost scans), the recent motion, the loose points, the lost streak, and the
+//! run's [`TrackingSummary`]. Each scan's pose comes from [`track_scan`] with that state; a
+//! loop correction moves the poses it holds ([`Tracker::apply_correction`]).
 
 use super::estimator::{
     MotionModel, PoseCovariance, covariance_of, fuse, prior_information, speed_spread_m,
@@ -11,7 +11,7 @@ use super::estimator::{
 use super::params::{MapperParams, MotionPrior, TrackParams};
 use super::recent::{LoosePoints, RecentMotion};
 use super::speed::{ObservedSpeed, scaled};
-use super::strategy::{TrackConfig, TrackInput, TriedPose, track_scan_tried};
+use super::strategy::{TrackConfig, TrackInput, TriedPose, track_scan};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict};
 use crate::align::{AlignParams, AlignResult, thin_points};
@@ -33,7 +33,7 @@ pub struct ScanNumber {
 }
 
 /// What tracking made of one scan.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct TrackedScan {
     /// The scan's pose, map frame: ICP's final fit, or with nothing to align to, the motion
     /// prior's guess (the first scan: the map frame's origin, or odometry's pose) or its
@@ -62,6 +62,8 @@ pub struct TrackedScan {
     /// at [`UNKNOWN_VARIANCE`](crate::tracking::UNKNOWN_VARIANCE); zero for the first scan, which
     /// sets the map frame.
     pub covariance: PoseCovariance,
+    /// Every ICP run the strategy made, in order ([`TriedPose`]), if [`Tracker::record_tries`].
+    pub tries: Vec<TriedPose>,
 }
 
 /// Tracking from scan to scan: the state the motion prior and the strategy need (the last
@@ -89,9 +91,7 @@ pub struct Tracker {
     recent: RecentMotion,
     lost_streak: u32,
     summary: TrackingSummary,
-    /// The ICP runs of the last scan [`Tracker::track`] aligned ([`Tracker::take_tries`]),
-    /// where [`Tracker::record_tries`] asked for them.
-    tries: Vec<TriedPose>,
+    /// Whether [`Tracker::track`] keeps each scan's ICP runs ([`TrackedScan::tries`]).
     record_tries: bool,
 }
 
@@ -125,20 +125,18 @@ impl Tracker {
             recent: RecentMotion::default(),
             lost_streak: 0,
             summary: TrackingSummary::default(),
-            tries: Vec::new(),
             record_tries: false,
         }
     }
 
-    /// Tracks scan `at` in `map` (map frame): the motion prior's guess, ICP from its starts, the
-    /// window search, the hypotheses and the verdict ([`track_scan`](super::track_scan)); then
-    /// takes the scan into the state (its pose, speed, loose points, the summary).
+    /// Tracks scan `at` in `map` (map frame): the motion prior's guess, ICP from its starts,
+    /// the window search, the hypotheses and the verdict ([`track_scan`]); then takes the scan
+    /// into the state (its pose, speed, loose points, the summary).
     pub fn track(&mut self, at: ScanNumber, scan: &PreparedScan, map: &GlobalMap) -> TrackedScan {
         let prior = self.prior(scan);
         // With odometry, the pose the strategy finds is weighed with the odometry's step
         // (`Attempt::weighed`); a pose already weighed is not fused again below.
         let (align, tracking, tries) = self.align(scan, map, &prior);
-        self.tries = tries;
         let weighed = align.is_some_and(|a| a.weighed_prior);
         // A scan with nothing to align (no valid points) is no evidence of motion: the anchor,
         // like a scan with too few correspondences; the very first scan starts the map frame.
@@ -191,7 +189,8 @@ impl Tracker {
             (false, Verdict::Lost, _) | (false, _, None) => unknown_covariance(),
             (false, _, Some(information)) => covariance_of(&information),
         };
-        self.take(at, scan, &prior, (pose, align, tracking), covariance, true)
+        let tracked = self.take(at, scan, &prior, (pose, align, tracking), covariance, true);
+        TrackedScan { tries, ..tracked }
     }
 
     /// Takes scan `at` into the state with a pose found elsewhere (map frame): the search that
@@ -207,8 +206,6 @@ impl Tracker {
         tracking: Tracking,
         placed: bool,
     ) -> TrackedScan {
-        // The pose was found elsewhere: no ICP run of this tracker's is its candidate.
-        self.tries.clear();
         let prior = self.prior(scan);
         let covariance = match (align, tracking.verdict) {
             (Some(a), v) if placed && v != Verdict::Lost => {
@@ -384,6 +381,7 @@ impl Tracker {
             after_gap,
             off_odometry,
             covariance,
+            tries: Vec::new(),
         }
     }
 
@@ -515,9 +513,9 @@ impl Tracker {
         })
     }
 
-    /// The pose of the scan in `map` and the verdict on it, from [`track_scan`](super::track_scan)
-    /// with the tracker's state and the motion prior's poses (and the log's odometry as a witness
-    /// of the step); the pose is `None` when there is nothing to align to.
+    /// The pose of the scan in `map` and the verdict on it, from [`track_scan`] with the
+    /// tracker's state and the motion prior's poses (and the log's odometry as a witness of
+    /// the step); the pose is `None` when there is nothing to align to.
     fn align(
         &self,
         scan: &PreparedScan,
@@ -571,20 +569,12 @@ impl Tracker {
             tracking: &self.tracking,
             starts: &self.starts,
         };
-        track_scan_tried(&input, &config, self.record_tries)
+        track_scan(&input, &config, self.record_tries)
     }
 
-    /// Whether [`Tracker::track`] keeps every ICP run it makes for a scan
-    /// ([`Tracker::take_tries`]); off by default.
+    /// Keeps each scan's ICP runs in [`TrackedScan::tries`] from now on (off by default).
     pub fn record_tries(&mut self, on: bool) {
         self.record_tries = on;
-    }
-
-    /// Every ICP run the last [`Tracker::track`] made ([`TriedPose`], map frame), in order,
-    /// where [`Tracker::record_tries`] asked for them; empty after taking them, and for a
-    /// scan with nothing to align to.
-    pub fn take_tries(&mut self) -> Vec<TriedPose> {
-        std::mem::take(&mut self.tries)
     }
 }
 

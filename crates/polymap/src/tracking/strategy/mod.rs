@@ -224,15 +224,9 @@ fn best_of(results: impl IntoIterator<Item = AlignResult>) -> Option<AlignResult
 
 /// The pose of one scan and the verdict on it: ICP from the starts, the whole-circle recovery,
 /// the window search (see the module); the result is `None` when there is nothing to align
-/// to (an empty map, a scan without points).
-pub fn track_scan(input: &TrackInput, config: &TrackConfig) -> (Option<AlignResult>, Tracking) {
-    let (result, tracking, _) = track_scan_tried(input, config, false);
-    (result, tracking)
-}
-
-/// [`track_scan`], with every ICP run it made ([`TriedPose`]), in the order it made them, where
-/// `record` asks for them (empty otherwise).
-pub fn track_scan_tried(
+/// to (an empty map, a scan without points). With every ICP run it made ([`TriedPose`]), in
+/// order, where `record` asks for them (empty otherwise).
+pub fn track_scan(
     input: &TrackInput,
     config: &TrackConfig,
     record: bool,
