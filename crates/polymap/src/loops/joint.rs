@@ -320,7 +320,13 @@ fn own_loop_edges(
     own.submaps = joint.submaps[joint.submaps.len() - b.len()..].to_vec();
     let mut edges = Vec::new();
     for k in 0..b.len() {
-        let found = own.find_loop_edges(k, diagnostics);
+        // Only what the fixed grid finds: an edge a grown grid found would wait for a second
+        // that agrees, which this one pass over B does not keep.
+        let found: Vec<Edge> = own
+            .find_loop_edges(k, diagnostics)
+            .into_iter()
+            .filter_map(|(e, grown)| (!grown).then_some(e))
+            .collect();
         if !found.is_empty() {
             own.last_closed = Some(k);
         }
@@ -341,7 +347,7 @@ pub(super) fn cross_of(
 ) -> usize {
     let candidates = cross_candidates(joint, na, na + k);
     for c in &candidates {
-        if let Some(measured) = joint.match_nodes(na + k, c, diagnostics) {
+        if let Some((measured, _)) = joint.match_nodes(na + k, c, diagnostics) {
             cross.push(CrossEdge {
                 a_node: c.j,
                 b_node: k,

@@ -12,14 +12,14 @@ use super::nodes::{Candidate, NodeGraph};
 use crate::align::ScoreRaster;
 
 impl NodeGraph {
-    /// The pose of the node in candidate `c`'s frame from their submaps, or `None` when the
-    /// match is weak or ambiguous.
+    /// The pose of the node in candidate `c`'s frame from their submaps, with whether the grid
+    /// grown with the travel found it, or `None` when the match is weak or ambiguous.
     pub(super) fn match_nodes(
         &self,
         k: usize,
         c: &Candidate,
         diagnostics: &mut LoopDiagnostics,
-    ) -> Option<Pose2> {
+    ) -> Option<(Pose2, bool)> {
         let p = &self.params;
         if c.target.is_empty() {
             return None;
@@ -48,71 +48,81 @@ impl NodeGraph {
                 .length()
                 < DIRECT_MATCH_MAX_MOVE_M
         {
-            return Some(direct.map_from_robot);
+            return Some((direct.map_from_robot, false));
         }
-        // Otherwise: the best starts of a grid around the prediction, each refined by ICP.
-        diagnostics.searches += 1;
+        // Otherwise: the best starts of a grid around the prediction, each refined by ICP; the
+        // grid as wide as the travel between the nodes asks (`search_translation_per_travel`)
+        // only where the fixed one found nothing, so that a wider grid's alike places cannot
+        // displace a match the fixed grid finds.
         let sample = score_sample(points, &self.align);
-        let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
         let sigma = self.align.rotation_search_sigma_m;
         let raster = ScoreRaster::of(&c.target, &[], SCORE_CELL_M, sigma);
-        let scored = scored_grid(
-            &raster,
-            &sample,
-            &PoseGrid {
-                center: predicted,
-                steps_xy: (p.search_translation_m / p.search_step_m).floor() as i32,
-                step_m: p.search_step_m,
-                rotations: -steps_r..steps_r + 1,
-                step_rad: p.search_rotation_step_deg.to_radians(),
-            },
-        );
-        let top = scored.first().map_or(0.0, |s| s.0);
-        // Too few points near the submap anywhere in the search for half of them to match.
-        if top < MIN_TOP_SCORE_SHARE * p.min_matched_share * sample.len() as f64 {
-            return None;
-        }
-        // ICP from the best starts of distinct peaks (each more than a search step and the
-        // score's reach, or two rotation steps, from those before and from the prediction)
-        // that score at least `RIVAL_SCORE_SHARE` of the best (a peak far below it cannot
-        // come near its inliers): a rival place is tried too, not only the best place's
-        // neighbourhood.
-        let starts = distinct_peaks(
-            &scored,
-            &[predicted],
-            p.search_step_m + self.align.rotation_search_sigma_m,
-            (2.0 * p.search_rotation_step_deg).to_radians(),
-            SEARCH_PEAKS,
-            RIVAL_SCORE_SHARE * top,
-        );
-        let mut results: Vec<AlignResult> = vec![direct];
-        results.extend(
-            starts
+        let mut search = |half_m: f64| -> Option<Pose2> {
+            diagnostics.searches += 1;
+            let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
+            let scored = scored_grid(
+                &raster,
+                &sample,
+                &PoseGrid {
+                    center: predicted,
+                    steps_xy: (half_m / p.search_step_m).floor() as i32,
+                    step_m: p.search_step_m,
+                    rotations: -steps_r..steps_r + 1,
+                    step_rad: p.search_rotation_step_deg.to_radians(),
+                },
+            );
+            let top = scored.first().map_or(0.0, |s| s.0);
+            // Too few points near the submap anywhere in the search for half of them to match.
+            if top < MIN_TOP_SCORE_SHARE * p.min_matched_share * sample.len() as f64 {
+                return None;
+            }
+            // ICP from the best starts of distinct peaks (each more than a search step and the
+            // score's reach, or two rotation steps, from those before and from the prediction)
+            // that score at least `RIVAL_SCORE_SHARE` of the best (a peak far below it cannot
+            // come near its inliers): a rival place is tried too, not only the best place's
+            // neighbourhood.
+            let starts = distinct_peaks(
+                &scored,
+                &[predicted],
+                p.search_step_m + self.align.rotation_search_sigma_m,
+                (2.0 * p.search_rotation_step_deg).to_radians(),
+                SEARCH_PEAKS,
+                RIVAL_SCORE_SHARE * top,
+            );
+            let mut results: Vec<AlignResult> = vec![direct];
+            results.extend(
+                starts
+                    .iter()
+                    .map(|start| align_points(points, &index, *start, *start, &self.align)),
+            );
+            let best = *results.iter().max_by(|a, b| {
+                (a.inliers, -a.residual_rms_m)
+                    .partial_cmp(&(b.inliers, -b.residual_rms_m))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            })?;
+            if !good(&best) {
+                return None;
+            }
+            let rival = results
                 .iter()
-                .map(|start| align_points(points, &index, *start, *start, &self.align)),
-        );
-        let best = *results.iter().max_by(|a, b| {
-            (a.inliers, -a.residual_rms_m)
-                .partial_cmp(&(b.inliers, -b.residual_rms_m))
-                .unwrap_or(std::cmp::Ordering::Equal)
-        })?;
-        if !good(&best) {
-            return None;
+                .filter(|r| {
+                    !close(
+                        &r.map_from_robot,
+                        &best.map_from_robot,
+                        RIVAL_MIN_OFFSET_M,
+                        RIVAL_MIN_OFFSET_DEG,
+                    )
+                })
+                .map(|r| r.inliers)
+                .max()
+                .unwrap_or(0);
+            (rival as f64 <= p.max_ambiguity * best.inliers as f64).then_some(best.map_from_robot)
+        };
+        let fixed = search(p.search_translation_m);
+        match fixed.is_none() && c.search_half_m > p.search_translation_m {
+            true => search(c.search_half_m).map(|pose| (pose, true)),
+            false => fixed.map(|pose| (pose, false)),
         }
-        let rival = results
-            .iter()
-            .filter(|r| {
-                !close(
-                    &r.map_from_robot,
-                    &best.map_from_robot,
-                    RIVAL_MIN_OFFSET_M,
-                    RIVAL_MIN_OFFSET_DEG,
-                )
-            })
-            .map(|r| r.inliers)
-            .max()
-            .unwrap_or(0);
-        (rival as f64 <= p.max_ambiguity * best.inliers as f64).then_some(best.map_from_robot)
     }
 }
 

@@ -22,6 +22,11 @@
 //!   (`min_matched_share`), most of those fit it within ICP's robust scale
 //!   (`min_inlier_share`), ICP left no direction unobservable (a corridor), and no result from
 //!   another peak has `max_ambiguity` of its inliers: a **loop edge**.
+//! - The graph's prediction drifts with the travel between the two nodes: where the grid finds
+//!   no match, a grid `search_translation_per_travel` of that travel wide (up to
+//!   `search_radius_m`) is searched, and a loop edge it finds is held until a second one,
+//!   within 3 nodes, agrees with it (below): the wider the search, the likelier an alike
+//!   place matches, so it neither displaces what the fixed grid finds nor goes in alone.
 //! - A loop edge that disagrees with the graph by more than `confirm_above_m` (or
 //!   `confirm_above_deg`) is held until a second one, within `confirm_within_nodes` nodes,
 //!   agrees with it on where the node belongs: a false match rarely repeats consistently. Off by

@@ -33,6 +33,8 @@ pub(super) struct Candidate {
     pub(super) j: usize,
     pub(super) predicted: Pose2,
     pub(super) target: Vec<Segment>,
+    /// Half-width of the grid of translations searched around `predicted`, metres.
+    pub(super) search_half_m: f64,
 }
 
 /// The pose graph with the node submaps.
@@ -152,15 +154,20 @@ impl NodeGraph {
         k
     }
 
-    /// The loop edges node `k` gets from matching its candidates.
-    pub(super) fn find_loop_edges(&self, k: usize, diagnostics: &mut LoopDiagnostics) -> Vec<Edge> {
-        let mut found: Vec<Edge> = Vec::new();
+    /// The loop edges node `k` gets from matching its candidates, each with whether a grid
+    /// grown with the travel found it.
+    pub(super) fn find_loop_edges(
+        &self,
+        k: usize,
+        diagnostics: &mut LoopDiagnostics,
+    ) -> Vec<(Edge, bool)> {
+        let mut found: Vec<(Edge, bool)> = Vec::new();
         for c in &self.candidates(k) {
             diagnostics.candidates += 1;
-            let Some(measured) = self.match_nodes(k, c, diagnostics) else {
+            let Some((measured, grown)) = self.match_nodes(k, c, diagnostics) else {
                 continue;
             };
-            found.push(Edge {
+            let edge = Edge {
                 from: c.j,
                 to: k,
                 measured,
@@ -168,7 +175,8 @@ impl NodeGraph {
                 sigma_rad: self.params.loop_sigma_deg.to_radians(),
                 doubt_m2: glam::DMat2::ZERO,
                 robust: true,
-            });
+            };
+            found.push((edge, grown));
         }
         found
     }
@@ -176,17 +184,20 @@ impl NodeGraph {
     /// The edges to take in now: an edge that would bend the graph a lot waits (held) for a
     /// second one that agrees with it (a false match rarely repeats consistently); the others
     /// go in at once, and so do held edges that another held edge confirms.
-    fn confirm(&mut self, k: usize, found: Vec<Edge>) -> Vec<Edge> {
+    fn confirm(&mut self, k: usize, found: Vec<(Edge, bool)>) -> Vec<Edge> {
         let p = &self.params;
         let (confirm_m, confirm_rad) = (p.confirm_above_m, p.confirm_above_deg.to_radians());
-        let within_nodes = p.confirm_within_nodes;
+        let within_nodes = p.confirm_within_nodes.max(FAR_CONFIRM_WITHIN_NODES);
         self.held.retain(|e| e.to + within_nodes >= k);
         let mut take: Vec<Edge> = Vec::new();
-        for e in found {
-            if within_nodes == 0 || !beyond(&off(&self.poses, &e), confirm_m, confirm_rad) {
-                take.push(e);
-            } else {
-                self.held.push(e);
+        for (e, grown) in found {
+            // An edge a grid grown with the travel found always waits: the wider the search,
+            // the likelier an alike place matches.
+            let doubted =
+                p.confirm_within_nodes > 0 && beyond(&off(&self.poses, &e), confirm_m, confirm_rad);
+            match grown || doubted {
+                false => take.push(e),
+                true => self.held.push(e),
             }
         }
         let agree = |poses: &[Pose2], a: &Edge, b: &Edge| {
@@ -254,7 +265,25 @@ impl NodeGraph {
         {
             return Vec::new();
         }
-        self.near_candidates(k, k - p.min_node_gap, k - 1)
+        let mut candidates = self.near_candidates(k, k - p.min_node_gap, k - 1);
+        // The graph's prediction drifts with the travel between the two nodes: the grid
+        // grows with it (at most as wide as the candidates' radius).
+        for c in &mut candidates {
+            c.search_half_m = search_half_m(p, self.travel_m(c.j, k));
+        }
+        candidates
+    }
+
+    /// Path length over the graph's node poses from node `from` to node `to`, metres.
+    fn travel_m(&self, from: usize, to: usize) -> f64 {
+        let to = to.min(self.poses.len().saturating_sub(1));
+        (from..to)
+            .map(|i| {
+                self.poses[i]
+                    .translation()
+                    .distance(self.poses[i + 1].translation())
+            })
+            .sum()
     }
 
     /// The nodes `0..=last` within `search_radius_m` of node `k`, nearest first, at most
@@ -304,11 +333,28 @@ impl NodeGraph {
                     j,
                     predicted: self.poses[j].between(&self.poses[k]),
                     target,
+                    search_half_m: p.search_translation_m,
                 }
             })
             .collect()
     }
 }
+
+/// The half-width of the grid search between two nodes `travel_m` metres of travel apart:
+/// `search_translation_m`, or `search_translation_per_travel` of the travel where that is
+/// more, at most `search_radius_m` (a node farther off is no candidate) and at most as wide as
+/// keeps the grid within [`MAX_SEARCH_STARTS`](super::params::MAX_SEARCH_STARTS), metres.
+pub(super) fn search_half_m(p: &LoopParams, travel_m: f64) -> f64 {
+    let grown = (p.search_translation_per_travel * travel_m).min(p.search_radius_m);
+    let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() + 0.5;
+    let most = (super::params::MAX_SEARCH_STARTS / (2.0 * steps_r)).sqrt() / 2.0 - 0.5;
+    let most_m = most.floor().max(0.0) * p.search_step_m;
+    p.search_translation_m.max(grown.min(most_m))
+}
+
+/// A loop edge found by a grid grown with the travel (`search_translation_per_travel`) waits at
+/// least this many nodes for a second that agrees.
+const FAR_CONFIRM_WITHIN_NODES: usize = 3;
 
 /// A node with fewer points (after thinning) is not matched.
 pub(super) const MIN_NODE_POINTS: usize = 20;
