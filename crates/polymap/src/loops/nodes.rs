@@ -181,9 +181,10 @@ impl NodeGraph {
         found
     }
 
-    /// The edges to take in now: an edge that would bend the graph a lot waits (held) for a
-    /// second one that agrees with it (a false match rarely repeats consistently); the others
-    /// go in at once, and so do held edges that another held edge confirms.
+    /// The edges to take in now: an edge a grid grown with the travel found, or (with
+    /// `confirm_within_nodes`) one that would bend the graph a lot, waits (held) for a second
+    /// one that agrees with it (a false match rarely repeats consistently); the others go in at
+    /// once, and so do held edges that another held edge confirms.
     fn confirm(&mut self, k: usize, found: Vec<(Edge, bool)>) -> Vec<Edge> {
         let p = &self.params;
         let (confirm_m, confirm_rad) = (p.confirm_above_m, p.confirm_above_deg.to_radians());
