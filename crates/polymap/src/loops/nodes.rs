@@ -267,10 +267,13 @@ impl NodeGraph {
             return Vec::new();
         }
         let mut candidates = self.near_candidates(k, k - p.min_node_gap, k - 1);
-        // The graph's prediction drifts with the travel between the two nodes: the grid
-        // grows with it (at most as wide as the candidates' radius).
+        // The graph's prediction drifts with the travel between the two nodes that no loop
+        // edge holds: since the older node, or since the last node that closed a loop (the
+        // graph up to it agrees with its loops). The grid grows with it, at most as wide as
+        // the candidates' radius.
         for c in &mut candidates {
-            c.search_half_m = search_half_m(p, self.travel_m(c.j, k));
+            let from = self.last_closed.map_or(c.j, |closed| closed.max(c.j));
+            c.search_half_m = search_half_m(p, self.travel_m(from, k));
         }
         candidates
     }
