@@ -158,6 +158,7 @@ impl LoopCloser {
         closer.poses = saved.iter().map(|n| n.pose).collect();
         let mut graph = closer.worker.read(|g| g.clone());
         graph.fixed = saved.len();
+        graph.first_run_node = saved.len();
         for node in saved {
             graph.poses.push(node.pose);
             graph.submaps.push(Submap {

@@ -52,6 +52,8 @@ pub(super) struct NodeGraph {
     pub(super) held: Vec<Edge>,
     /// Nodes below this never move: node 0 (the map frame), or the nodes of a saved map.
     pub(super) fixed: usize,
+    /// This run's first node: 0, or after a saved map's nodes their count.
+    pub(super) first_run_node: usize,
 }
 
 /// What the graph did with one node: loop edges found, and the optimised poses of nodes
@@ -80,6 +82,7 @@ impl NodeGraph {
             last_closed: None,
             held: Vec::new(),
             fixed: 1,
+            first_run_node: 0,
         }
     }
 
@@ -269,10 +272,12 @@ impl NodeGraph {
         let mut candidates = self.near_candidates(k, k - p.min_node_gap, k - 1);
         // The graph's prediction drifts with the travel between the two nodes that no loop
         // edge holds: since the older node, or since the last node that closed a loop (the
-        // graph up to it agrees with its loops). The grid grows with it, at most as wide as
-        // the candidates' radius.
+        // graph up to it agrees with its loops), or since this run's first node (where it
+        // placed itself on a saved map). The grid grows with it, at most as wide as the
+        // candidates' radius.
         for c in &mut candidates {
-            let from = self.last_closed.map_or(c.j, |closed| closed.max(c.j));
+            let anchor = self.last_closed.unwrap_or(0).max(self.first_run_node);
+            let from = anchor.max(c.j);
             c.search_half_m = search_half_m(p, self.travel_m(from, k));
         }
         candidates

@@ -47,10 +47,11 @@ pub struct LoopParams {
     /// Half-width of the grid of translations searched around the predicted pose, metres...
     pub search_translation_m: f64,
     /// Where that grid finds no match: a grid as wide as this share of the robot's travel
-    /// since the older node, or since the last node that closed a loop (at most
+    /// since the older node, the last node that closed a loop or this run's first (at most
     /// `search_radius_m`), its match held until a second agrees (see the module docs). The
-    /// graph's prediction drifts with the travel no loop edge holds (3 %: a heading off by 1.7° on average; ACES every 10th scan with odometry
-    /// came back 3.4–4.8 m off after 155 m). Dimensionless; 0: no grown grid. Measured in
+    /// graph's prediction drifts with the travel no loop edge holds (3 %: a heading off by
+    /// 1.7° on average; ACES every 10th scan with odometry came back 3.4–4.8 m off after
+    /// 155 m). Dimensionless; 0: no grown grid. Measured in
     /// `docs/decisions/2026-12-04-loop-search-grows-with-travel.md`.
     pub search_translation_per_travel: f64,
     /// Step of that grid, metres.

@@ -541,3 +541,42 @@ fn a_return_drifted_past_the_fixed_grid_closes_with_the_grid_grown_by_the_travel
     assert!(fixed > 0.8 * before, "the last pose off by {figures}");
     assert!(grown < 0.3 * before, "the last pose off by {figures}");
 }
+
+#[test]
+fn a_run_on_a_saved_map_grows_its_grid_with_its_own_travel_only() {
+    // A saved map of 10 nodes round a 270 m loop that ends where it began, then this run's
+    // 17 nodes within a metre of the map's first node: the run's own travel is short, and
+    // the saved map's path says nothing of how far its prediction drifted.
+    let mut graph = nodes::NodeGraph::new(LoopParams::default(), Config::default().align, 0.5);
+    let saved = [
+        (0.0, 0.0),
+        (30.0, 0.0),
+        (60.0, 0.0),
+        (90.0, 0.0),
+        (90.0, 30.0),
+        (90.0, 60.0),
+        (60.0, 60.0),
+        (30.0, 60.0),
+        (0.0, 60.0),
+        (0.0, 30.0),
+    ];
+    let run = (0..17).map(|i| (0.5 + 0.03 * i as f64, 0.2));
+    for (x, y) in saved.into_iter().chain(run) {
+        graph.poses.push(Pose2::new(x, y, 0.0));
+        graph.submaps.push(nodes::Submap {
+            points: (0..40).map(|i| Vec2::new(0.1 * i as f64, 1.0)).collect(),
+            segments: vec![seg(0.0, 1.0, 4.0, 1.0)],
+        });
+    }
+    graph.first_run_node = saved.len();
+    let k = graph.poses.len() - 1;
+    let candidates = graph.candidates(k);
+    assert!(
+        candidates.iter().any(|c| c.j == 0),
+        "the map's first node is a candidate"
+    );
+    let fixed = LoopParams::default().search_translation_m;
+    for c in &candidates {
+        assert_eq!(c.search_half_m, fixed, "candidate {}", c.j);
+    }
+}
