@@ -23,8 +23,9 @@
 //!   (`min_inlier_share`), ICP left no direction unobservable (a corridor), and no result from
 //!   another peak has `max_ambiguity` of its inliers: a **loop edge**.
 //! - The graph's prediction drifts with the travel no loop edge holds (since the older node,
-//!   the last node that closed a loop, or this run's first node on a saved map): where the grid finds no match, a grid
-//!   `search_translation_per_travel` of that travel wide (up to `search_radius_m`) is searched, and a loop edge it finds is held until a second one,
+//!   the last node that closed a loop, or this run's first node on a saved map): where the
+//!   grid finds no match, a grid `search_translation_per_travel` of that travel wide (up to
+//!   `search_radius_m`) is searched, and a loop edge it finds is held until a second one,
 //!   within 3 nodes, agrees with it (below): the wider the search, the likelier an alike
 //!   place matches, so it neither displaces what the fixed grid finds nor goes in alone.
 //! - A loop edge that disagrees with the graph by more than `confirm_above_m` (or
