@@ -55,7 +55,7 @@ pub struct LoopCloser {
     poses: Vec<Pose2>,
     /// The node being filled; `None` before the first scan and after a node ends.
     open: Option<OpenNode>,
-    worker: Worker,
+    pub(super) worker: Worker,
     loop_edges: usize,
     /// The first failure of the graph's work; loop closure stops there.
     failure: Option<LoopFailure>,

@@ -315,17 +315,21 @@ fn own_loop_edges(
     b: &[SavedNode],
     diagnostics: &mut LoopDiagnostics,
 ) -> Vec<Edge> {
-    let mut own = NodeGraph::new(joint.params.clone(), joint.align.clone(), joint.grid_cell_m);
+    // Only what the fixed grid finds: an edge a grown grid found would wait for a second
+    // that agrees, which this one pass over B does not keep.
+    let params = LoopParams {
+        search_translation_per_travel: 0.0,
+        ..joint.params.clone()
+    };
+    let mut own = NodeGraph::new(params, joint.align.clone(), joint.grid_cell_m);
     own.poses = b.iter().map(|n| n.pose).collect();
     own.submaps = joint.submaps[joint.submaps.len() - b.len()..].to_vec();
     let mut edges = Vec::new();
     for k in 0..b.len() {
-        // Only what the fixed grid finds: an edge a grown grid found would wait for a second
-        // that agrees, which this one pass over B does not keep.
         let found: Vec<Edge> = own
             .find_loop_edges(k, diagnostics)
             .into_iter()
-            .filter_map(|(e, grown)| (!grown).then_some(e))
+            .map(|(e, _)| e)
             .collect();
         if !found.is_empty() {
             own.last_closed = Some(k);

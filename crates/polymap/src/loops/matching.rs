@@ -57,8 +57,8 @@ impl NodeGraph {
         let sample = score_sample(points, &self.align);
         let sigma = self.align.rotation_search_sigma_m;
         let raster = ScoreRaster::of(&c.target, &[], SCORE_CELL_M, sigma);
-        let mut search = |half_m: f64| -> Option<Pose2> {
-            diagnostics.searches += 1;
+        diagnostics.searches += 1;
+        let search = |half_m: f64| -> Option<Pose2> {
             let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
             let scored = scored_grid(
                 &raster,
@@ -119,7 +119,8 @@ impl NodeGraph {
             (rival as f64 <= p.max_ambiguity * best.inliers as f64).then_some(best.map_from_robot)
         };
         let fixed = search(p.search_translation_m);
-        match fixed.is_none() && c.search_half_m > p.search_translation_m {
+        let steps = |half_m: f64| (half_m / p.search_step_m).floor();
+        match fixed.is_none() && steps(c.search_half_m) > steps(p.search_translation_m) {
             true => search(c.search_half_m).map(|pose| (pose, true)),
             false => fixed.map(|pose| (pose, false)),
         }

@@ -25,9 +25,10 @@
 //! - The graph's prediction drifts with the travel no loop edge holds (since the older node,
 //!   the last node that closed a loop, or this run's first node on a saved map): where the
 //!   grid finds no match, a grid `search_translation_per_travel` of that travel wide (up to
-//!   `search_radius_m`) is searched, and a loop edge it finds is held until a second one,
-//!   within 3 nodes, agrees with it (below): the wider the search, the likelier an alike
-//!   place matches, so it neither displaces what the fixed grid finds nor goes in alone.
+//!   `search_radius_m`, and within `MAX_SEARCH_STARTS`) is searched, and a loop edge it finds
+//!   is held until another node's, within 3 nodes, agrees with it to within `confirm_above_m`
+//!   and `confirm_above_deg`: the wider the search, the likelier an alike place matches, so it
+//!   neither displaces what the fixed grid finds nor goes in alone.
 //! - A loop edge that disagrees with the graph by more than `confirm_above_m` (or
 //!   `confirm_above_deg`) is held until a second one, within `confirm_within_nodes` nodes,
 //!   agrees with it on where the node belongs: a false match rarely repeats consistently. Off by

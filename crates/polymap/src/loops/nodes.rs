@@ -48,8 +48,9 @@ pub(super) struct NodeGraph {
     pub(super) edges: Vec<Edge>,
     /// The last node that got a loop edge.
     pub(super) last_closed: Option<usize>,
-    /// Loop edges that would bend the graph a lot, waiting for a second that agrees.
-    pub(super) held: Vec<Edge>,
+    /// Loop edges waiting for a second that agrees: those that would bend the graph a lot
+    /// (with `confirm_within_nodes`), and those a grid grown with the travel found (`true`).
+    pub(super) held: Vec<(Edge, bool)>,
     /// Nodes below this never move: node 0 (the map frame), or the nodes of a saved map.
     pub(super) fixed: usize,
     /// This run's first node: 0, or after a saved map's nodes their count.
@@ -184,15 +185,20 @@ impl NodeGraph {
         found
     }
 
-    /// The edges to take in now: an edge a grid grown with the travel found, or (with
-    /// `confirm_within_nodes`) one that would bend the graph a lot, waits (held) for a second
-    /// one that agrees with it (a false match rarely repeats consistently); the others go in at
-    /// once, and so do held edges that another held edge confirms.
-    fn confirm(&mut self, k: usize, found: Vec<(Edge, bool)>) -> Vec<Edge> {
+    /// The edges to take in now: an edge a grid grown with the travel found (for
+    /// [`FAR_CONFIRM_WITHIN_NODES`] nodes), or (for `confirm_within_nodes` nodes) one that would
+    /// bend the graph a lot, waits (held) for a second one of its kind that agrees with it to
+    /// within `confirm_above_m` and `confirm_above_deg` (a false match rarely repeats
+    /// consistently); the others go in at once, and so do held edges another confirms.
+    pub(super) fn confirm(&mut self, k: usize, found: Vec<(Edge, bool)>) -> Vec<Edge> {
         let p = &self.params;
         let (confirm_m, confirm_rad) = (p.confirm_above_m, p.confirm_above_deg.to_radians());
-        let within_nodes = p.confirm_within_nodes.max(FAR_CONFIRM_WITHIN_NODES);
-        self.held.retain(|e| e.to + within_nodes >= k);
+        let within_nodes = |grown: bool| match grown {
+            true => FAR_CONFIRM_WITHIN_NODES,
+            false => p.confirm_within_nodes,
+        };
+        self.held
+            .retain(|(e, grown)| e.to + within_nodes(*grown) >= k);
         let mut take: Vec<Edge> = Vec::new();
         for (e, grown) in found {
             // An edge a grid grown with the travel found always waits: the wider the search,
@@ -201,7 +207,7 @@ impl NodeGraph {
                 p.confirm_within_nodes > 0 && beyond(&off(&self.poses, &e), confirm_m, confirm_rad);
             match grown || doubted {
                 false => take.push(e),
-                true => self.held.push(e),
+                true => self.held.push((e, grown)),
             }
         }
         let agree = |poses: &[Pose2], a: &Edge, b: &Edge| {
@@ -213,14 +219,22 @@ impl NodeGraph {
             let by_b = poses[b.from].compose(&b.measured);
             !beyond(&by_a.between(&by_b), confirm_m, confirm_rad)
         };
-        let confirmed: Vec<bool> = (0..self.held.len())
+        // A grown edge is confirmed only by one of another node: one node's two candidates
+        // match the same walls, an alike place as readily as the true one.
+        let held = &self.held;
+        let confirmed: Vec<bool> = (0..held.len())
             .map(|i| {
-                (0..self.held.len())
-                    .any(|j| i != j && agree(&self.poses, &self.held[i], &self.held[j]))
+                let (a, a_grown) = &held[i];
+                held.iter().enumerate().any(|(j, (b, b_grown))| {
+                    i != j
+                        && a_grown == b_grown
+                        && (!a_grown || a.to != b.to)
+                        && agree(&self.poses, a, b)
+                })
             })
             .collect();
         let mut i = 0;
-        self.held.retain(|e| {
+        self.held.retain(|(e, _)| {
             let keep = !confirmed[i];
             if !keep {
                 take.push(*e);
@@ -361,8 +375,8 @@ pub(super) fn search_half_m(p: &LoopParams, travel_m: f64) -> f64 {
     p.search_translation_m.max(grown.min(most_m))
 }
 
-/// A loop edge found by a grid grown with the travel (`search_translation_per_travel`) waits at
-/// least this many nodes for a second that agrees.
+/// A loop edge found by a grid grown with the travel (`search_translation_per_travel`) waits
+/// this many nodes for a second that agrees.
 const FAR_CONFIRM_WITHIN_NODES: usize = 3;
 
 /// A node with fewer points (after thinning) is not matched.

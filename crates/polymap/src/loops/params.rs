@@ -95,8 +95,9 @@ pub struct LoopParams {
     /// ...or this far (degrees) from the graph's prediction is held until another loop edge
     /// within `confirm_within_nodes` nodes agrees with it to within the same distances.
     pub confirm_above_deg: f64,
-    /// How long a held loop edge waits for one that agrees, nodes (0, the default: edges are
-    /// never held).
+    /// How long a held loop edge waits for one that agrees, nodes (0, the default: no edge is
+    /// held for bending the graph; an edge the grid grown with the travel found always waits,
+    /// 3 nodes, for another node's that agrees to within `confirm_above_m` and `_deg`).
     pub confirm_within_nodes: usize,
     /// A loop edge this far (metres)...
     pub optimize_min_error_m: f64,

@@ -580,3 +580,43 @@ fn a_run_on_a_saved_map_grows_its_grid_with_its_own_travel_only() {
         assert_eq!(c.search_half_m, fixed, "candidate {}", c.j);
     }
 }
+
+#[test]
+fn a_grown_grid_match_goes_in_only_once_another_nodes_match_agrees() {
+    // Nodes 0..=20 along a line 1 m apart; nodes 19 and 20 matched node 0 and 1 as if they
+    // stood 3 m further on (the grown grid's kind of find).
+    let mut graph = nodes::NodeGraph::new(LoopParams::default(), Config::default().align, 0.5);
+    graph.poses = (0..=20).map(|i| Pose2::new(i as f64, 0.0, 0.0)).collect();
+    let edge = |from: usize, to: usize| graph::Edge {
+        from,
+        to,
+        measured: Pose2::new(to as f64 - from as f64 + 3.0, 0.0, 0.0),
+        sigma_m: 0.05,
+        sigma_rad: 0.01,
+        doubt_m2: glam::DMat2::ZERO,
+        robust: true,
+    };
+    // Alone, and with the same node's match of another candidate: held.
+    assert!(graph.confirm(19, vec![(edge(0, 19), true)]).is_empty());
+    assert!(graph.confirm(19, vec![(edge(1, 19), true)]).is_empty());
+    assert_eq!(graph.held.len(), 2);
+    // The next node's match agrees: all three go in.
+    assert_eq!(graph.confirm(20, vec![(edge(0, 20), true)]).len(), 3);
+    assert!(graph.held.is_empty());
+    // A lone one waits at most `FAR_CONFIRM_WITHIN_NODES` nodes.
+    assert!(graph.confirm(20, vec![(edge(2, 20), true)]).is_empty());
+    assert!(graph.confirm(24, Vec::new()).is_empty());
+    assert!(graph.held.is_empty());
+}
+
+#[test]
+fn a_run_continuing_a_saved_map_counts_its_travel_from_its_own_first_node() {
+    let saved: Vec<SavedNode> = (0..4)
+        .map(|i| SavedNode {
+            pose: Pose2::new(10.0 * i as f64, 0.0, 0.0),
+            segments: vec![seg(0.0, 1.0, 4.0, 1.0)],
+        })
+        .collect();
+    let closer = LoopCloser::continuing(params(), Config::default().align, 0.5, saved);
+    assert_eq!(closer.worker.read(|g| g.first_run_node), 4);
+}
