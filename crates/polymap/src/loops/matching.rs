@@ -58,14 +58,15 @@ impl NodeGraph {
         let sigma = self.align.rotation_search_sigma_m;
         let raster = ScoreRaster::of(&c.target, &[], SCORE_CELL_M, sigma);
         diagnostics.searches += 1;
+        let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
+        let steps = |half_m: f64| (half_m / p.search_step_m).floor() as i32;
         let search = |half_m: f64| -> Option<Pose2> {
-            let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() as i32;
             let scored = scored_grid(
                 &raster,
                 &sample,
                 &PoseGrid {
                     center: predicted,
-                    steps_xy: (half_m / p.search_step_m).floor() as i32,
+                    steps_xy: steps(half_m),
                     step_m: p.search_step_m,
                     rotations: -steps_r..steps_r + 1,
                     step_rad: p.search_rotation_step_deg.to_radians(),
@@ -119,7 +120,6 @@ impl NodeGraph {
             (rival as f64 <= p.max_ambiguity * best.inliers as f64).then_some(best.map_from_robot)
         };
         let fixed = search(p.search_translation_m);
-        let steps = |half_m: f64| (half_m / p.search_step_m).floor();
         match fixed.is_none() && steps(c.search_half_m) > steps(p.search_translation_m) {
             true => search(c.search_half_m).map(|pose| (pose, true)),
             false => fixed.map(|pose| (pose, false)),

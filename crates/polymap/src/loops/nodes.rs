@@ -369,10 +369,7 @@ impl NodeGraph {
 /// keeps the grid within [`MAX_SEARCH_STARTS`](super::params::MAX_SEARCH_STARTS), metres.
 pub(super) fn search_half_m(p: &LoopParams, travel_m: f64) -> f64 {
     let grown = (p.search_translation_per_travel * travel_m).min(p.search_radius_m);
-    let steps_r = (p.search_rotation_deg / p.search_rotation_step_deg).floor() + 0.5;
-    let most = (super::params::MAX_SEARCH_STARTS / (2.0 * steps_r)).sqrt() / 2.0 - 0.5;
-    let most_m = most.floor().max(0.0) * p.search_step_m;
-    p.search_translation_m.max(grown.min(most_m))
+    p.search_translation_m.max(grown.min(p.widest_search_m()))
 }
 
 /// A loop edge found by a grid grown with the travel (`search_translation_per_travel`) waits

@@ -228,8 +228,19 @@ impl LoopParams {
     /// Starts of the grid search: its translation and rotation ranges over their steps.
     fn search_starts(&self) -> f64 {
         let steps_t = (self.search_translation_m / self.search_step_m).floor() + 0.5;
-        let steps_r = (self.search_rotation_deg / self.search_rotation_step_deg).floor() + 0.5;
-        (2.0 * steps_t).powi(2) * 2.0 * steps_r
+        (2.0 * steps_t).powi(2) * self.search_rotations()
+    }
+
+    /// The widest half-width of a grid search whose starts stay within [`MAX_SEARCH_STARTS`]
+    /// (the inverse of `search_starts`), metres.
+    pub(super) fn widest_search_m(&self) -> f64 {
+        let steps_t = (MAX_SEARCH_STARTS / self.search_rotations()).sqrt() / 2.0 - 0.5;
+        steps_t.floor().max(0.0) * self.search_step_m
+    }
+
+    /// Rotations of the grid search (its range over its step, both ends).
+    fn search_rotations(&self) -> f64 {
+        2.0 * ((self.search_rotation_deg / self.search_rotation_step_deg).floor() + 0.5)
     }
 }
 
