@@ -156,12 +156,16 @@ pub fn run_with(
     let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
     let warn_above = config.observe.warn_seen_through_above;
+    let crossed = record.mapper.crossed_walls().unwrap_or_default();
     record.history.map_consistency = record
         .mapper
         .seen_through_share()
         .map(|seen_through_share| MapConsistency {
             seen_through_share,
             warn_above,
+            crossed_share: crossed.share,
+            warn_crossed_above: config.observe.warn_crossed_above,
+            crossed_scans: crossed.scans.clone(),
         });
     record.history.weak_stretches = record
         .mapper
@@ -197,6 +201,11 @@ pub fn run_with(
             "seen_through_share": c.seen_through_share,
             "warn_above": c.warn_above,
             "likely_inconsistent": c.likely_inconsistent(),
+            "crossed_share": c.crossed_share,
+            "crossings": crossed.crossings,
+            "crossed_scans": c.crossed_scans,
+            "warn_crossed_above": c.warn_crossed_above,
+            "walls_cross": c.walls_cross(),
         });
     }
     if let Some(n) = pruned {

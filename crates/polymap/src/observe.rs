@@ -26,6 +26,7 @@
 //! seen, not seen through; glass that returns some rays and passes others is seen every few
 //! scans, which resets the count.
 
+pub use crossed::{CROSSED_DEPTH_M, CROSSED_MAX_DEG, CROSSED_MIN_DEG, CrossedWalls, crossed_walls};
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
@@ -67,6 +68,9 @@ pub struct ObserveParams {
     /// ([`seen_through_share`]) is reported as likely inconsistent (a warning, and
     /// `summary.json` `map_consistency`).
     pub warn_seen_through_above: f64,
+    /// A run whose map has more than this share of its length in walls that cross another at
+    /// a shallow angle ([`crossed_walls`]) is reported as likely inconsistent too; `[0, 1]`.
+    pub warn_crossed_above: f64,
 }
 
 impl Default for ObserveParams {
@@ -84,6 +88,7 @@ impl Default for ObserveParams {
             prune_min_through: 5,
             prune_window: 30,
             warn_seen_through_above: 0.1,
+            warn_crossed_above: 0.2,
         }
     }
 }
@@ -108,6 +113,7 @@ impl ObserveParams {
                 0.0,
                 1e9,
             )
+            .share("warn_crossed_above", self.warn_crossed_above)
             .done()
     }
 
@@ -362,5 +368,6 @@ fn covered(map: &GlobalMap, id: SegmentId, c: &Crossings, p: &ObserveParams) -> 
     c.t_hi >= c.t_lo && cover >= p.through_cover * len
 }
 
+mod crossed;
 #[cfg(test)]
 mod tests;

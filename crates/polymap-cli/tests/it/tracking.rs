@@ -296,15 +296,18 @@ fn verdicts_are_honest_on_dense_runs_and_every_fifth_scan() {
     );
 }
 
-/// The run-level check (`observe.warn_seen_through_above`) raises no false alarm on the
-/// clean dense runs: their scans see through their walls almost never (at most 0.003).
+/// The run-level checks (`observe.warn_seen_through_above`, `warn_crossed_above`) raise no
+/// false alarm on the clean dense runs: their scans see through their walls almost never (at
+/// most 0.003), and their walls cross another at a shallow angle almost nowhere.
 #[test]
 fn clean_dense_runs_are_not_called_inconsistent() {
-    let warn_above = polymap::observe::ObserveParams::default().warn_seen_through_above;
+    let p = polymap::observe::ObserveParams::default();
     for name in WORLDS {
         let (mapped, _) = mapped_densely(name);
         let share = mapped.seen_through.expect("walls seen");
-        assert!(share < 0.5 * warn_above, "{name}: {share}");
+        assert!(share < 0.5 * p.warn_seen_through_above, "{name}: {share}");
+        let crossed = mapped.crossed.expect("a map");
+        assert!(crossed < 0.5 * p.warn_crossed_above, "{name}: {crossed}");
     }
 }
 

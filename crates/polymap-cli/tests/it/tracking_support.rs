@@ -60,6 +60,9 @@ pub struct Mapped {
     /// How often the scans saw through the map for each time they saw it
     /// ([`Mapper::seen_through_share`]).
     pub seen_through: Option<f64>,
+    /// The share of the map drawn twice about walls that cross
+    /// ([`Mapper::crossed_walls`]).
+    pub crossed: Option<f64>,
     /// Wall-clock seconds of mapping.
     pub seconds: f64,
 }
@@ -206,6 +209,7 @@ pub fn map_every(run: &SimRun, every: usize, offset: usize, config: Config) -> M
             .collect(),
         summary: mapper.tracking_summary().clone(),
         seen_through: mapper.seen_through_share(),
+        crossed: mapper.crossed_walls().map(|c| c.share),
         seconds,
         kept,
     }

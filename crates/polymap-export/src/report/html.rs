@@ -131,7 +131,7 @@ fn payload<'a>(map: &MapSnapshot, data: &'a ReportData) -> Payload<'a> {
         gaps: data.gaps,
         off_odometry_scans: &data.off_odometry_scans,
         off_odometry: data.off_odometry,
-        map_consistency: data.map_consistency,
+        map_consistency: data.map_consistency.clone(),
         weak_stretches: &data.weak_stretches,
     }
 }

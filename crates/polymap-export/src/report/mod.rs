@@ -89,21 +89,45 @@ pub struct ReportData {
 /// is in `summary.json`), and as many marks of scans off the odometry.
 pub const MAX_GAP_MARKS: usize = 1000;
 
-/// How often the run's scans saw through the map's walls for each time they saw one
-/// ([`polymap::observe::seen_through_share`]), and the share above which the map is called
-/// likely inconsistent (`[observe] warn_seen_through_above`). Both plain ratios.
-#[derive(Debug, Clone, Copy, PartialEq, Default, serde::Serialize, serde::Deserialize)]
+/// The run's checks of the map as a whole: how often its scans saw through the map's walls for
+/// each time they saw one ([`polymap::observe::seen_through_share`]), and how much of its length
+/// lies in walls that cross another at a shallow angle ([`polymap::observe::crossed_walls`]),
+/// each with the share above which the map is called likely inconsistent (`[observe]
+/// warn_seen_through_above`, `warn_crossed_above`). Plain ratios.
+#[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct MapConsistency {
     /// Σ length × seen through / Σ length × seen over the map's segments.
     pub seen_through_share: f64,
     /// The run warns above this share.
     pub warn_above: f64,
+    /// The share of the map's length in walls that cross another.
+    #[serde(default)]
+    pub crossed_share: f64,
+    /// The run warns above this share.
+    #[serde(default = "no_crossed_warning")]
+    pub warn_crossed_above: f64,
+    /// The scans (the map's numbering) that first mapped the walls that cross, as inclusive
+    /// ranges `[first, last]`.
+    #[serde(default)]
+    pub crossed_scans: Vec<[u32; 2]>,
+}
+
+/// A report written without the crossing check warned of none.
+fn no_crossed_warning() -> f64 {
+    1.0
 }
 
 impl MapConsistency {
-    /// Whether the share is above the threshold: the map is likely inconsistent.
+    /// Whether the scans saw through the map's walls above the threshold: the map is likely
+    /// inconsistent.
     pub fn likely_inconsistent(&self) -> bool {
         self.seen_through_share > self.warn_above
+    }
+
+    /// Whether the walls that cross another hold more of the map's length than the threshold:
+    /// the map likely draws walls twice, turned apart.
+    pub fn walls_cross(&self) -> bool {
+        self.crossed_share > self.warn_crossed_above
     }
 }
 

@@ -194,11 +194,17 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
         map_consistency: Some(crate::report::MapConsistency {
             seen_through_share: 0.25,
             warn_above: 0.1,
+            crossed_share: 0.5,
+            warn_crossed_above: 0.2,
+            crossed_scans: vec![[3, 9]],
         }),
         ..data
     };
     let html =
         crate::report::render_report_html(&polymap_io::snapshot::MapSnapshot::default(), &checked)
             .expect("renders");
-    assert!(html.contains("\"map_consistency\":{\"seen_through_share\":0.25,\"warn_above\":0.1}"));
+    assert!(html.contains(
+        "\"map_consistency\":{\"seen_through_share\":0.25,\"warn_above\":0.1,\
+         \"crossed_share\":0.5,\"warn_crossed_above\":0.2,\"crossed_scans\":[[3,9]]}"
+    ));
 }

@@ -2,7 +2,7 @@
 
 use super::Mapper;
 use crate::map::Observations;
-use crate::observe::{prune_contradicted, seen_through_share};
+use crate::observe::{CrossedWalls, crossed_walls, prune_contradicted, seen_through_share};
 
 impl Mapper {
     /// The observation record of each segment of [`Mapper::segments`], in the same order (in a
@@ -27,6 +27,15 @@ impl Mapper {
             return None;
         }
         seen_through_share(&self.map)
+    }
+
+    /// The map's walls that cross each other ([`crate::observe::crossed_walls`]); `None` where
+    /// [`Mapper::seen_through_share`] is (the map's consistency is not checked).
+    pub fn crossed_walls(&self) -> Option<CrossedWalls> {
+        if self.saved.is_some() || !self.config.observe.enabled {
+            return None;
+        }
+        crossed_walls(&self.map)
     }
 
     /// Removes the segments that later scans contradict
