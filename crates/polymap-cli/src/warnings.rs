@@ -223,7 +223,9 @@ pub fn warn_odometry(t: &TrackingSummary, used: bool) {
 
 /// Says when the map is likely inconsistent: its scans saw through its walls more than
 /// `warn_above` as often as they saw them (`observe.warn_seen_through_above`; see
-/// [`polymap::observe::seen_through_share`]).
+/// [`polymap::observe::seen_through_share`]); and when more than `warn_crossed_above` of its
+/// length is drawn twice about walls that cross (`observe.warn_crossed_above`; see
+/// [`polymap::observe::crossed_walls`]), naming the scans that first mapped them.
 pub fn warn_consistency(consistency: Option<&MapConsistency>) {
     if let Some(c) = consistency.filter(|c| c.likely_inconsistent()) {
         eprintln!(
@@ -238,10 +240,10 @@ pub fn warn_consistency(consistency: Option<&MapConsistency>) {
     if let Some(c) = consistency.filter(|c| c.walls_cross()) {
         eprintln!(
             "polymap: warning: the map draws walls twice, turned apart: {:.0} % of its length \
-             lies in walls that cross another at 5-30° (above {:.0} %; at most 9 % where \
-             tracking held on the benchmark and sparse logs): a curved wall drawn as straight \
-             chords, or walls mapped from poses turned against each other; the walls were \
-             first mapped by {} (summary.json: map_consistency.crossed_share)",
+             is drawn twice about walls that cross each other at 5-30° (above {:.0} %; at \
+             most 8 % where tracking held on the benchmark and sparse logs): a curved wall \
+             drawn as straight chords, or walls mapped from poses turned against each other; \
+             the walls were first mapped by {} (summary.json: map_consistency.crossed_share)",
             100.0 * c.crossed_share,
             100.0 * c.warn_crossed_above,
             scan_ranges(&c.crossed_scans)

@@ -68,8 +68,9 @@ pub struct ObserveParams {
     /// ([`seen_through_share`]) is reported as likely inconsistent (a warning, and
     /// `summary.json` `map_consistency`).
     pub warn_seen_through_above: f64,
-    /// A run whose map has more than this share of its length in walls that cross another at
-    /// a shallow angle ([`crossed_walls`]) is reported as likely inconsistent too; `[0, 1]`.
+    /// A run whose map has more than this share of its length drawn twice about walls that
+    /// cross at a shallow angle ([`crossed_walls`]) is reported as drawing walls twice (a
+    /// warning, and `summary.json` `map_consistency.walls_cross`); `[0, 1]`.
     pub warn_crossed_above: f64,
 }
 

@@ -91,16 +91,16 @@ pub const MAX_GAP_MARKS: usize = 1000;
 
 /// The run's checks of the map as a whole: how often its scans saw through the map's walls for
 /// each time they saw one ([`polymap::observe::seen_through_share`]), and how much of its length
-/// lies in walls that cross another at a shallow angle ([`polymap::observe::crossed_walls`]),
-/// each with the share above which the map is called likely inconsistent (`[observe]
-/// warn_seen_through_above`, `warn_crossed_above`). Plain ratios.
+/// is drawn twice about walls that cross at a shallow angle ([`polymap::observe::crossed_walls`]),
+/// each with the share above which the run warns (`[observe] warn_seen_through_above`,
+/// `warn_crossed_above`). Plain ratios.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct MapConsistency {
     /// Σ length × seen through / Σ length × seen over the map's segments.
     pub seen_through_share: f64,
     /// The run warns above this share.
     pub warn_above: f64,
-    /// The share of the map's length in walls that cross another.
+    /// The share of the map's length drawn twice about walls that cross.
     #[serde(default)]
     pub crossed_share: f64,
     /// The run warns above this share.
