@@ -156,16 +156,19 @@ pub fn run_with(
     let stats = counts.map(|c| c.0);
     // Before pruning: the segments pruned are the evidence.
     let warn_above = config.observe.warn_seen_through_above;
-    let crossed = record.mapper.crossed_walls().unwrap_or_default();
+    let crossed = record.mapper.crossed_walls();
     record.history.map_consistency = record
         .mapper
         .seen_through_share()
         .map(|seen_through_share| MapConsistency {
             seen_through_share,
             warn_above,
-            crossed_share: crossed.share,
+            crossed_share: crossed.as_ref().map(|c| c.share),
             warn_crossed_above: config.observe.warn_crossed_above,
-            crossed_scans: crossed.scans.clone(),
+            crossed_scans: crossed
+                .as_ref()
+                .map(|c| c.scans.clone())
+                .unwrap_or_default(),
         });
     record.history.weak_stretches = record
         .mapper
@@ -202,10 +205,10 @@ pub fn run_with(
             "warn_above": c.warn_above,
             "likely_inconsistent": c.likely_inconsistent(),
             "crossed_share": c.crossed_share,
-            "crossings": crossed.crossings,
+            "crossings": crossed.as_ref().map(|c| c.crossings),
             "crossed_scans": c.crossed_scans,
             "warn_crossed_above": c.warn_crossed_above,
-            "walls_cross": c.walls_cross(),
+            "walls_drawn_twice": c.walls_drawn_twice(),
         });
     }
     if let Some(n) = pruned {

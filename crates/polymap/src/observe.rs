@@ -26,7 +26,10 @@
 //! seen, not seen through; glass that returns some rays and passes others is seen every few
 //! scans, which resets the count.
 
-pub use crossed::{CROSSED_DEPTH_M, CROSSED_MAX_DEG, CROSSED_MIN_DEG, CrossedWalls, crossed_walls};
+pub use crossed::{
+    CROSSED_DEPTH_M, CROSSED_MAX_DEG, CROSSED_MIN_DEG, CrossedWalls, DOUBLED_WITHIN_M,
+    crossed_walls,
+};
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
@@ -70,7 +73,7 @@ pub struct ObserveParams {
     pub warn_seen_through_above: f64,
     /// A run whose map has more than this share of its length drawn twice about walls that
     /// cross at a shallow angle ([`crossed_walls`]) is reported as drawing walls twice (a
-    /// warning, and `summary.json` `map_consistency.walls_cross`); `[0, 1]`.
+    /// warning, and `summary.json` `map_consistency.walls_drawn_twice`); `[0, 1]`.
     pub warn_crossed_above: f64,
 }
 
@@ -369,6 +372,6 @@ fn covered(map: &GlobalMap, id: SegmentId, c: &Crossings, p: &ObserveParams) -> 
     c.t_hi >= c.t_lo && cover >= p.through_cover * len
 }
 
-mod crossed;
+pub mod crossed;
 #[cfg(test)]
 mod tests;

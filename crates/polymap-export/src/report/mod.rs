@@ -100,21 +100,17 @@ pub struct MapConsistency {
     pub seen_through_share: f64,
     /// The run warns above this share.
     pub warn_above: f64,
-    /// The share of the map's length drawn twice about walls that cross.
-    #[serde(default)]
-    pub crossed_share: f64,
+    /// The share of the map's length drawn twice about walls that cross; `None` in a report
+    /// written before the check.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crossed_share: Option<f64>,
     /// The run warns above this share.
-    #[serde(default = "no_crossed_warning")]
+    #[serde(default)]
     pub warn_crossed_above: f64,
-    /// The scans (the map's numbering) that first mapped the walls that cross, as inclusive
-    /// ranges `[first, last]`.
+    /// The scans (this run's numbering) that last merged into the walls that cross, as
+    /// inclusive ranges `[first, last]`.
     #[serde(default)]
     pub crossed_scans: Vec<[u32; 2]>,
-}
-
-/// A report written without the crossing check warned of none.
-fn no_crossed_warning() -> f64 {
-    1.0
 }
 
 impl MapConsistency {
@@ -124,10 +120,11 @@ impl MapConsistency {
         self.seen_through_share > self.warn_above
     }
 
-    /// Whether the walls that cross another hold more of the map's length than the threshold:
-    /// the map likely draws walls twice, turned apart.
-    pub fn walls_cross(&self) -> bool {
-        self.crossed_share > self.warn_crossed_above
+    /// Whether more of the map's length than the threshold is drawn twice about walls that
+    /// cross: the map likely draws walls twice, turned apart.
+    pub fn walls_drawn_twice(&self) -> bool {
+        self.crossed_share
+            .is_some_and(|share| share > self.warn_crossed_above)
     }
 }
 

@@ -320,8 +320,8 @@
       rows.push(['walls seen through, per sighting', fmt(100 * mc.seen_through_share, 3) + ' %' +
         (mc.seen_through_share > mc.warn_above ? ' (above ' + fmt(100 * mc.warn_above, 3) +
           ' %: the map is likely inconsistent)' : '')]);
-      if (mc.crossed_share !== undefined) {
-        rows.push(['map length in walls crossing another at 5-30°',
+      if (mc.crossed_share !== undefined && mc.crossed_share !== null) {
+        rows.push(['map length drawn twice about walls crossing at 5-30°',
           fmt(100 * mc.crossed_share, 3) + ' %' + (mc.crossed_share > mc.warn_crossed_above ?
             ' (above ' + fmt(100 * mc.warn_crossed_above, 3) +
             ' %: walls drawn twice, turned apart)' : '')]);

@@ -194,7 +194,7 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
         map_consistency: Some(crate::report::MapConsistency {
             seen_through_share: 0.25,
             warn_above: 0.1,
-            crossed_share: 0.5,
+            crossed_share: Some(0.5),
             warn_crossed_above: 0.2,
             crossed_scans: vec![[3, 9]],
         }),
@@ -207,4 +207,17 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
         "\"map_consistency\":{\"seen_through_share\":0.25,\"warn_above\":0.1,\
          \"crossed_share\":0.5,\"warn_crossed_above\":0.2,\"crossed_scans\":[[3,9]]}"
     ));
+}
+
+/// A report written before the check of walls that cross reads back without it: no share,
+/// no warning of walls drawn twice (the page shows no row for it).
+#[test]
+fn a_map_consistency_without_the_crossing_check_reads_as_not_checked() {
+    let old: crate::report::MapConsistency =
+        serde_json::from_str(r#"{"seen_through_share":0.25,"warn_above":0.1}"#).unwrap();
+    assert_eq!(old.crossed_share, None);
+    assert!(old.likely_inconsistent());
+    assert!(!old.walls_drawn_twice());
+    let written = serde_json::to_string(&old).unwrap();
+    assert!(!written.contains("crossed_share"), "{written}");
 }

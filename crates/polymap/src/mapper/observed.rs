@@ -29,13 +29,23 @@ impl Mapper {
         seen_through_share(&self.map)
     }
 
-    /// The map's walls that cross each other ([`crate::observe::crossed_walls`]); `None` where
+    /// The map's walls that cross each other ([`crate::observe::crossed_walls`]), over every
+    /// run of the map, with the scans that last merged into them in this run's numbering
+    /// (those of the runs before a `--resume`d map are left out); `None` where
     /// [`Mapper::seen_through_share`] is (the map's consistency is not checked).
     pub fn crossed_walls(&self) -> Option<CrossedWalls> {
         if self.saved.is_some() || !self.config.observe.enabled {
             return None;
         }
-        crossed_walls(&self.map)
+        let mut crossed = crossed_walls(&self.map)?;
+        let first = self.first_scan;
+        crossed.scans = crossed
+            .scans
+            .iter()
+            .filter(|[_, last]| *last >= first)
+            .map(|[a, b]| [a.saturating_sub(first), b - first])
+            .collect();
+        Some(crossed)
     }
 
     /// Removes the segments that later scans contradict

@@ -8,14 +8,14 @@
 //! a chord onto another main direction (ARCHITECTURE §4, known gaps). Such a map has few of
 //! its walls seen through, since a ray from either version of the wall reaches the other
 //! only near the crossing. Steep crossings are left out: furniture, railings and door leaves
-//! stand across walls, and the benchmark logs' maps cross at 40–90° in dozens of places
-//! where tracking held.
+//! stand across walls (FR079's dense map crosses 72 times, all at 41–90°, where tracking held).
 //!
 //! How much wall a crossing draws twice is the stretch of each of the two segments within
-//! [`DOUBLED_WITHIN_M`] of the other's line: `2 × DOUBLED_WITHIN_M / sin(angle)` about the
-//! crossing, cut at the segment's ends. So the flatter the crossing the more it counts, and
-//! two long walls whose ends overshoot each other at a bend count only their overshoot's
-//! neighbourhood, not their whole length.
+//! [`DOUBLED_WITHIN_M`] of the other segment: at most `DOUBLED_WITHIN_M / sin(angle)` each way
+//! from the crossing, cut where either segment ends. So the flatter the crossing the more it
+//! counts, and two long walls whose ends overshoot each other at a bend count only their
+//! overshoot's neighbourhood, not their whole length. A segment's stretches from several
+//! crossings count once where they overlap, so the share is at most 1.
 
 use serde::{Deserialize, Serialize};
 
@@ -46,37 +46,51 @@ const RANGE_GAP_SCANS: u32 = 10;
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct CrossedWalls {
     /// The share of the map's length drawn twice about the crossings (see the module docs),
-    /// at least 0; a stretch drawn thrice counts twice.
+    /// `[0, 1]`.
     pub share: f64,
     /// How many pairs of segments cross.
     pub crossings: usize,
-    /// The scans that first mapped the crossed segments (their `born_scan`, the map's
-    /// numbering), as inclusive ranges, in order: where to look.
+    /// The scans that last merged into the crossed segments (their `born_scan`, which every
+    /// merge renews; the map's numbering), as inclusive ranges, in order: where to look.
     pub scans: Vec<[u32; 2]>,
 }
 
-/// The walls of `map` that cross another (see the module docs); `None` for an empty map.
+/// The walls of `map` that cross another (see the module docs); `None` for a map without
+/// length. Segments with a non-finite coordinate are left out.
 pub fn crossed_walls(map: &GlobalMap) -> Option<CrossedWalls> {
     let mut total_m = 0.0;
     let mut doubled_m = 0.0;
     let mut born = Vec::new();
     let mut crossings = 0;
+    let mut others = Vec::new();
     for (id, s) in map.iter() {
+        if !s.segment.is_finite() {
+            continue;
+        }
         total_m += s.segment.length();
-        let (lo, hi) = s.segment.bounds();
-        let mut crosses = false;
-        for other in map.query(lo, hi) {
-            let Some(o) = map.get(other).filter(|_| other != id) else {
+        others.clear();
+        map.for_crossing_candidates(s.segment.start, s.segment.end, |other, _| {
+            others.push(other);
+        });
+        others.sort_unstable();
+        others.dedup();
+        // This segment's stretches (metres from its start) drawn twice, one per crossing.
+        let mut stretches: Vec<(f64, f64)> = Vec::new();
+        for &other in &others {
+            let Some(o) = map
+                .get(other)
+                .filter(|o| other != id && o.segment.is_finite())
+            else {
                 continue;
             };
-            // Each pair is met from both of its segments: each time, this one's stretch.
-            if let Some(stretch_m) = doubled_stretch(&s.segment, &o.segment) {
-                crosses = true;
-                doubled_m += stretch_m;
+            if let Some(stretch) = doubled_stretch(&s.segment, &o.segment) {
+                stretches.push(stretch);
+                // Each pair is met from both of its segments.
                 crossings += usize::from(id < other);
             }
         }
-        if crosses {
+        if !stretches.is_empty() {
+            doubled_m += union_m(&mut stretches);
             born.push(s.born_scan);
         }
     }
@@ -85,16 +99,17 @@ pub fn crossed_walls(map: &GlobalMap) -> Option<CrossedWalls> {
     }
     born.sort_unstable();
     Some(CrossedWalls {
-        share: doubled_m / total_m,
+        share: (doubled_m / total_m).min(1.0),
         crossings,
         scans: ranges(&born),
     })
 }
 
 /// Where `a` and `b` cross at an angle within [`CROSSED_MIN_DEG`]..=[`CROSSED_MAX_DEG`], at
-/// least [`CROSSED_DEPTH_M`] from every end of both: the stretch of `a` within
-/// [`DOUBLED_WITHIN_M`] of `b`'s line, metres.
-fn doubled_stretch(a: &Segment, b: &Segment) -> Option<f64> {
+/// least [`CROSSED_DEPTH_M`] from every end of both: the stretch of `a` (metres from its
+/// start, `(from, to)`) within [`DOUBLED_WITHIN_M`] of `b`'s line and alongside `b` (where
+/// `a`'s points project onto `b` between its ends).
+fn doubled_stretch(a: &Segment, b: &Segment) -> Option<(f64, f64)> {
     let (da, db) = (a.vector(), b.vector());
     let (la, lb) = (da.length(), db.length());
     if la < 2.0 * CROSSED_DEPTH_M || lb < 2.0 * CROSSED_DEPTH_M {
@@ -115,9 +130,38 @@ fn doubled_stretch(a: &Segment, b: &Segment) -> Option<f64> {
     let along_b = w.perp_dot(da) / cross * lb;
     let deep =
         |along: f64, length: f64| along >= CROSSED_DEPTH_M && along <= length - CROSSED_DEPTH_M;
+    if !(deep(along_a, la) && deep(along_b, lb)) {
+        return None;
+    }
+    // A point of `a` at `along_a + u` lies `|u| sin` from `b`'s line and projects onto `b` at
+    // `along_b + u cos` (`cos` signed: the two directions' cosine).
     let half = DOUBLED_WITHIN_M / sin;
-    (deep(along_a, la) && deep(along_b, lb))
-        .then(|| (along_a + half).min(la) - (along_a - half).max(0.0))
+    let cos = da.dot(db) / (la * lb);
+    let (b_lo, b_hi) = {
+        let (x, y) = (-along_b / cos, (lb - along_b) / cos);
+        (x.min(y), x.max(y))
+    };
+    let from = (along_a - half).max(0.0).max(along_a + b_lo);
+    let to = (along_a + half).min(la).min(along_a + b_hi);
+    (to > from).then_some((from, to))
+}
+
+/// The length the `stretches` (`(from, to)`, metres) cover together, overlaps once.
+fn union_m(stretches: &mut [(f64, f64)]) -> f64 {
+    stretches.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut total = 0.0;
+    let mut open: Option<(f64, f64)> = None;
+    for &(from, to) in stretches.iter() {
+        open = match open {
+            Some((a, b)) if from <= b => Some((a, b.max(to))),
+            Some((a, b)) => {
+                total += b - a;
+                Some((from, to))
+            }
+            None => Some((from, to)),
+        };
+    }
+    total + open.map_or(0.0, |(a, b)| b - a)
 }
 
 /// Sorted scan numbers as inclusive ranges, numbers at most [`RANGE_GAP_SCANS`] apart joined.
@@ -178,19 +222,48 @@ mod tests {
         ]);
         let found = crossed_walls(&bend).unwrap();
         assert_eq!(found.crossings, 1);
-        let each = 0.6 + 0.3 / turned.sin();
+        // Each from its end 0.6 m past the crossing to where the other's end projects.
+        let each = 0.6 + 0.6 / turned.cos();
         assert!((found.share - 2.0 * each / 24.6).abs() < 1e-9, "{found:?}");
     }
 
-    /// Corners, a T-junction, a door leaf across a wall (steep), near-duplicates of one wall
-    /// (under 5°) and a tip just past a wall are no crossings.
+    /// A fan of walls crossing at one point, 10° apart: each wall's stretches from its two
+    /// crossings overlap and count once; the share stays within the map's length.
+    #[test]
+    fn stretches_drawn_more_than_twice_count_once() {
+        let wall = |deg: f64| {
+            let (s, c) = deg.to_radians().sin_cos();
+            (seg((-0.6 * c, -0.6 * s), (0.6 * c, 0.6 * s)), 0)
+        };
+        // Three 1.2 m walls: each drawn twice over its whole length by two crossings, once.
+        let fan = map_of(&[wall(0.0), wall(10.0), wall(20.0)]);
+        let found = crossed_walls(&fan).unwrap();
+        assert_eq!(found.crossings, 3);
+        assert!((found.share - 1.0).abs() < 1e-9, "{found:?}");
+        let wall = |deg: f64| {
+            let (s, c) = deg.to_radians().sin_cos();
+            (seg((-3.0 * c, -3.0 * s), (3.0 * c, 3.0 * s)), 0)
+        };
+        let fan = map_of(&[wall(0.0), wall(10.0), wall(20.0)]);
+        let found = crossed_walls(&fan).unwrap();
+        assert_eq!(found.crossings, 3);
+        // Each wall: 0.3 / sin 10° = 1.73 m each way from the crossing with its 10° neighbour,
+        // the stretch of its 20° crossing inside that (the middle wall's two alike), once.
+        let each = 2.0 * DOUBLED_WITHIN_M / 10f64.to_radians().sin();
+        assert!((found.share - 3.0 * each / 18.0).abs() < 1e-9, "{found:?}");
+        assert!(found.share <= 1.0);
+    }
+
+    /// Corners and a T-junction at a shallow angle, a door leaf across a wall (steep),
+    /// near-duplicates of one wall (under 5°) and a tip just past a wall are no crossings.
     #[test]
     fn corners_junctions_steep_crossings_and_near_duplicates_do_not_cross() {
+        let (s15, c15) = 15f64.to_radians().sin_cos();
         let map = map_of(&[
-            // A corner and a T-junction.
+            // A corner and a T-junction, at 15°.
             (seg((0.0, 0.0), (4.0, 0.0)), 0),
-            (seg((0.0, 0.0), (0.0, 4.0)), 0),
-            (seg((2.0, 0.0), (2.0, 3.0)), 0),
+            (seg((0.0, 0.0), (-4.0 * c15, 4.0 * s15)), 0),
+            (seg((2.0, 0.0), (2.0 + 3.0 * c15, 3.0 * s15)), 0),
             // A door leaf standing across a wall at 60°.
             (seg((6.0, -1.0), (7.2, 1.08)), 1),
             (seg((5.0, 0.0), (9.0, 0.0)), 1),
