@@ -90,6 +90,9 @@ pub fn run(a: &EvalArgs) -> Result<()> {
                 "segments": map.len(),
                 "doubled": doubled_walls(&map, &DoubledParams::default()),
             });
+            if let Some(c) = polymap::observe::crossed_walls_of(&map) {
+                out["crossed"] = json!({ "share": c.share, "crossings": c.crossings });
+            }
             if let Some(log) = log {
                 let trajectory = read_tum(run.join("trajectory.tum"))?;
                 let scans = read_scans(log)?;
@@ -289,6 +292,14 @@ fn map_table(v: &serde_json::Value) -> String {
             d["map_length_m"].as_f64().unwrap_or(0.0),
             p["within_m"],
             p["within_deg"],
+        );
+    }
+    if let Some(c) = v.get("crossed") {
+        s += &format!(
+            "walls crossing at 5-30°: {} of the map's length drawn twice about {} pairs of \
+             them\n",
+            pct(&c["share"]),
+            c["crossings"],
         );
     }
     let m = |x: &serde_json::Value| x.as_f64().map_or("-".to_owned(), |f| format!("{f:.4} m"));

@@ -28,7 +28,7 @@
 
 pub use crossed::{
     CROSSED_DEPTH_M, CROSSED_MAX_DEG, CROSSED_MIN_DEG, CrossedWalls, DOUBLED_WITHIN_M,
-    crossed_walls,
+    crossed_walls, crossed_walls_of,
 };
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};

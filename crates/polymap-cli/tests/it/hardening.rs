@@ -642,6 +642,8 @@ fn eval_map_measures_the_shape_after_aligning_and_the_placement_apart() {
     // Its walls are drawn once: 1.3 % of the map's length lies beside another segment.
     let doubled = v["doubled"]["share"].as_f64().unwrap();
     assert!(doubled < 0.05, "{v}");
+    // Nor do its walls cross.
+    assert_eq!(v["crossed"]["share"].as_f64(), Some(0.0), "{v}");
 }
 
 /// Copies the CARMEN log `from` to `to`, moving the laser and odometry poses of the `k`-th

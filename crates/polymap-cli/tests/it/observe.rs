@@ -165,6 +165,12 @@ fn a_curved_hallway_drawn_as_crossing_chords_is_said_to_draw_walls_twice() {
     assert!(!ranges.is_empty(), "{c}");
     let first = ranges[0][0].as_u64().unwrap();
     assert!(first >= 105, "a scan of the straight start named: {c}");
+    // `polymap eval map` measures the saved map alike.
+    let o = polymap(&["eval", "map", out.to_str().unwrap(), "--json"]);
+    assert!(o.status.success(), "{}", text(&o));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let evaluated = v["crossed"]["share"].as_f64().expect("a share");
+    assert!((evaluated - share).abs() < 1e-9, "{v} against {c}");
 }
 
 /// A room of boxes and a wall bent by 14° seen by a 360° laser (the simulated `clutter`, seed

@@ -20,7 +20,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::geometry::{Segment, Vec2};
-use crate::map::GlobalMap;
+use crate::map::{GlobalMap, MapParams, MapSegment};
 
 /// Crossings at a smaller angle, degrees, are near-duplicates of one wall (a merge's few
 /// centimetres), not a wall drawn twice.
@@ -102,6 +102,23 @@ pub fn crossed_walls(map: &GlobalMap) -> Option<CrossedWalls> {
         share: (doubled_m / total_m).min(1.0),
         crossings,
         scans: ranges(&born),
+    })
+}
+
+/// [`crossed_walls`] of a map given as its segments (map frame, metres; a saved `map.json`,
+/// another tool's map), under the default grid: the same figures as the run's own check of
+/// the same segments. Its `scans` are empty (segments alone carry no scan).
+pub fn crossed_walls_of(segments: &[Segment]) -> Option<CrossedWalls> {
+    let mut map = GlobalMap::new(MapParams::default().grid_cell_m, 1.0);
+    for &segment in segments {
+        map.insert(MapSegment {
+            segment,
+            born_scan: 0,
+        });
+    }
+    crossed_walls(&map).map(|c| CrossedWalls {
+        scans: Vec::new(),
+        ..c
     })
 }
 
