@@ -127,6 +127,27 @@ fn a_consistent_map_with_a_ghost_is_not_called_inconsistent_and_the_warning_says
     assert!(summary_of(&blind).get("map_consistency").is_none());
 }
 
+/// `polymap simulate WORLD SIM_ARGS…` into `dir/sim`, then `polymap map` of its log into
+/// `dir/run`: the map command's output, the run folder and its `summary.json`.
+fn simulated_and_mapped(
+    dir: &Path,
+    world: &str,
+    sim_args: &[&str],
+) -> (std::process::Output, std::path::PathBuf, serde_json::Value) {
+    let sim_dir = dir.join("sim");
+    let mut args = vec!["simulate", world];
+    args.extend_from_slice(sim_args);
+    args.extend_from_slice(&["-o", sim_dir.to_str().unwrap()]);
+    let o = polymap(&args);
+    assert!(o.status.success(), "{}", text(&o));
+    let out = dir.join("run");
+    let o = map_quietly(&sim_dir.join(format!("{world}.clf")), &out, &[]);
+    assert!(o.status.success(), "{}", text(&o));
+    let summary =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    (o, out, summary)
+}
+
 /// A curved hallway seen by a 360° laser (the simulated `curve`, seed 1): its bends are drawn
 /// as straight chords that cross each other at 7-28°, and the trajectory is 0.14 m off with
 /// nearly every scan tracked `ok` and the scans seeing through the walls 1 % of the time. The
@@ -135,27 +156,13 @@ fn a_consistent_map_with_a_ghost_is_not_called_inconsistent_and_the_warning_says
 #[test]
 fn a_curved_hallway_drawn_as_crossing_chords_is_said_to_draw_walls_twice() {
     let dir = tempfile::tempdir().unwrap();
-    let sim_dir = dir.path().join("sim");
-    let o = polymap(&[
-        "simulate",
-        "curve",
-        "--fov-deg",
-        "360",
-        "-o",
-        sim_dir.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o));
-    let out = dir.path().join("run");
-    let o = map_quietly(&sim_dir.join("curve.clf"), &out, &[]);
-    assert!(o.status.success(), "{}", text(&o));
+    let (o, out, summary) = simulated_and_mapped(dir.path(), "curve", &["--fov-deg", "360"]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     let line = stderr
         .lines()
         .find(|l| l.contains("the map draws walls twice"))
         .unwrap_or_else(|| panic!("no warning of walls drawn twice: {stderr}"));
     assert!(line.contains("last merged into by scans "), "{line}");
-    let summary: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let c = &summary["map_consistency"];
     assert_eq!(c["walls_drawn_twice"].as_bool(), Some(true), "{c}");
     assert_eq!(c["likely_inconsistent"].as_bool(), Some(false), "{c}");
@@ -179,24 +186,9 @@ fn a_curved_hallway_drawn_as_crossing_chords_is_said_to_draw_walls_twice() {
 #[test]
 fn a_cluttered_room_with_a_bent_wall_is_not_called_drawn_twice() {
     let dir = tempfile::tempdir().unwrap();
-    let sim_dir = dir.path().join("sim");
-    let o = polymap(&[
-        "simulate",
-        "clutter",
-        "--seed",
-        "2",
-        "--fov-deg",
-        "360",
-        "-o",
-        sim_dir.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", text(&o));
-    let out = dir.path().join("run");
-    let o = map_quietly(&sim_dir.join("clutter.clf"), &out, &[]);
-    assert!(o.status.success(), "{}", text(&o));
+    let sim = ["--seed", "2", "--fov-deg", "360"];
+    let (o, _, summary) = simulated_and_mapped(dir.path(), "clutter", &sim);
     assert!(!text(&o).contains("draws walls twice"), "{}", text(&o));
-    let summary: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let c = &summary["map_consistency"];
     let share = c["crossed_share"].as_f64().expect("a share");
     assert!(

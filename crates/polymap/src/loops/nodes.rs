@@ -289,8 +289,8 @@ impl NodeGraph {
         // graph up to it agrees with its loops), or since this run's first node (where it
         // placed itself on a saved map). The grid grows with it, at most as wide as the
         // candidates' radius.
+        let anchor = self.last_closed.unwrap_or(0).max(self.first_run_node);
         for c in &mut candidates {
-            let anchor = self.last_closed.unwrap_or(0).max(self.first_run_node);
             let from = anchor.max(c.j);
             c.search_half_m = search_half_m(p, self.travel_m(from, k));
         }

@@ -248,21 +248,19 @@ mod tests {
     /// crossings overlap and count once; the share stays within the map's length.
     #[test]
     fn stretches_drawn_more_than_twice_count_once() {
-        let wall = |deg: f64| {
+        // A wall through the origin at `deg`, `half_m` each way.
+        let wall = |deg: f64, half_m: f64| {
             let (s, c) = deg.to_radians().sin_cos();
-            (seg((-0.6 * c, -0.6 * s), (0.6 * c, 0.6 * s)), 0)
+            (seg((-half_m * c, -half_m * s), (half_m * c, half_m * s)), 0)
         };
+        let fan =
+            |half_m: f64| map_of(&[wall(0.0, half_m), wall(10.0, half_m), wall(20.0, half_m)]);
         // Three 1.2 m walls: each drawn twice over its whole length by two crossings, once.
-        let fan = map_of(&[wall(0.0), wall(10.0), wall(20.0)]);
-        let found = crossed_walls(&fan).unwrap();
+        let fan_short = fan(0.6);
+        let found = crossed_walls(&fan_short).unwrap();
         assert_eq!(found.crossings, 3);
         assert!((found.share - 1.0).abs() < 1e-9, "{found:?}");
-        let wall = |deg: f64| {
-            let (s, c) = deg.to_radians().sin_cos();
-            (seg((-3.0 * c, -3.0 * s), (3.0 * c, 3.0 * s)), 0)
-        };
-        let fan = map_of(&[wall(0.0), wall(10.0), wall(20.0)]);
-        let found = crossed_walls(&fan).unwrap();
+        let found = crossed_walls(&fan(3.0)).unwrap();
         assert_eq!(found.crossings, 3);
         // Each wall: 0.3 / sin 10° = 1.73 m each way from the crossing with its 10° neighbour,
         // the stretch of its 20° crossing inside that (the middle wall's two alike), once.
