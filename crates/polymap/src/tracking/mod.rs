@@ -35,7 +35,10 @@ pub use params::{
     START_SCORE_MARGIN, TrackParams, UNOBSERVED_REACH_M, VerdictParams, WEAK_DIRECTION_VELOCITY,
     WINDOW_DEG_PER_M, WINDOW_PER_RECENT, WINDOW_PER_STEP, WINDOW_PER_TURN, WindowSearchParams,
 };
-pub use recent::{LOOSE_OFF_MAP_M, LoosePoints, RecentMotion};
+pub use recent::{
+    LOOSE_OFF_MAP_M, LoosePoints, OWN_STEP_LENGTH_M, OWN_STEP_TURN_DEG, OWN_STEP_VALUES,
+    RecentMotion, STEPS_SEEN, StepsSeen,
+};
 pub use strategy::{
     PINNED_BELOW_INFORMATION, PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M,
     STOPPED_BELOW_SHARE_OF_STEP, TrackConfig, TrackInput, TriedPose, UNOBSERVED_ACROSS_M,

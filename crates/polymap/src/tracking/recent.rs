@@ -1,6 +1,7 @@
 //! What the last scans leave for the next: their largest steps and turns ([`RecentMotion`],
-//! which sizes the window search) and their points that no map segment explains
-//! ([`LoosePoints`], which the search raster and ICP match).
+//! which sizes the window search), the steps the robot was seen to make ([`StepsSeen`], the
+//! own-step hypotheses) and their points that no map segment explains ([`LoosePoints`],
+//! which the search raster and ICP match).
 
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 
@@ -41,6 +42,90 @@ impl RecentMotion {
     }
 }
 
+/// The steps the robot was seen to make: each motion between two scans tracked `ok` in a row
+/// with every direction observed (not a corner pose's), as its length and signed turn, the
+/// last [`STEPS_SEEN`]. What a robot did once it may do again: where the prediction and its
+/// window lose a scan (a robot that drove 3 m between scans after steps of 1 m), a step like
+/// one of these finds it ([`StepsSeen::hypotheses`]). On a dense log every step is short and
+/// straight, and the hypotheses are the previous pose and a few centimetres from it.
+#[derive(Debug, Clone, Default)]
+pub struct StepsSeen {
+    steps: std::collections::VecDeque<(f64, f64)>,
+}
+
+/// How many steps [`StepsSeen`] remembers: several minutes of a sparse log's travel, so that a
+/// long step seen early still counts.
+pub const STEPS_SEEN: usize = 300;
+
+/// The own-step hypotheses take the steps' lengths to this, metres (about ICP's reach from a
+/// start, so that one of them lies in the basin of any step of a length seen)...
+pub const OWN_STEP_LENGTH_M: f64 = 0.5;
+
+/// ...and their turns to this, degrees.
+pub const OWN_STEP_TURN_DEG: f64 = 15.0;
+
+/// ...and take at most this many lengths and turns each, the most often seen (each pair
+/// costs an ICP run: 36 at most). Eight of each tracked the sparse logs alike; four lost
+/// Orebro's 3 m step (a length seen only a few times).
+pub const OWN_STEP_VALUES: usize = 6;
+
+impl StepsSeen {
+    /// Records a step (the motion from one scan's pose to the next's, robot frame of the
+    /// first).
+    pub fn push(&mut self, step: &Pose2) {
+        let (length, turn) = (
+            step.translation().length(),
+            normalize_angle_rad(step.theta_rad),
+        );
+        if !(length.is_finite() && turn.is_finite()) {
+            return;
+        }
+        self.steps.push_back((length, turn));
+        while self.steps.len() > STEPS_SEEN {
+            self.steps.pop_front();
+        }
+    }
+
+    /// Steps like the robot's own (robot frame of the pose they start from): every length
+    /// seen (to [`OWN_STEP_LENGTH_M`]) with every turn seen (to [`OWN_STEP_TURN_DEG`]), and
+    /// none, each length driven along the arc's chord (at half the turn), standing still for
+    /// a length of 0; empty while no step was seen.
+    pub fn hypotheses(&self) -> Vec<Pose2> {
+        if self.steps.is_empty() {
+            return Vec::new();
+        }
+        let lengths = most_seen(self.steps.iter().map(|s| s.0), OWN_STEP_LENGTH_M);
+        let turn_q = OWN_STEP_TURN_DEG.to_radians();
+        let turns = most_seen(self.steps.iter().map(|s| s.1), turn_q);
+        let mut out = Vec::with_capacity(lengths.len() * turns.len());
+        for &d in &lengths {
+            for &t in &turns {
+                out.push(Pose2::new(d * (t / 2.0).cos(), d * (t / 2.0).sin(), t));
+            }
+        }
+        out
+    }
+}
+
+/// The values (rounded to multiples of `q`) seen most often, at most [`OWN_STEP_VALUES`],
+/// 0 always among them, in increasing order (ties to the smaller).
+fn most_seen(values: impl Iterator<Item = f64>, q: f64) -> Vec<f64> {
+    let mut counts: std::collections::BTreeMap<i64, usize> = std::collections::BTreeMap::new();
+    for v in values {
+        *counts.entry((v / q).round() as i64).or_default() += 1;
+    }
+    counts.insert(0, usize::MAX);
+    let mut by_count: Vec<(i64, usize)> = counts.into_iter().collect();
+    by_count.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    let mut kept: Vec<i64> = by_count
+        .into_iter()
+        .take(OWN_STEP_VALUES)
+        .map(|(k, _)| k)
+        .collect();
+    kept.sort_unstable();
+    kept.into_iter().map(|k| k as f64 * q).collect()
+}
+
 /// With `tracking.icp_loose_points`, a loose point at least this far from every map segment is
 /// one the map leaves unexplained, metres (closer, it is a sample of a mapped wall, which
 /// ICP matches to the segment).
@@ -73,5 +158,57 @@ impl LoosePoints {
         for p in self.scans.iter_mut().flatten() {
             *p = new_from_old.transform_point(*p);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn own_step_hypotheses_pair_every_length_seen_with_every_turn_seen() {
+        let mut seen = StepsSeen::default();
+        assert!(seen.hypotheses().is_empty());
+        for _ in 0..3 {
+            seen.push(&Pose2::new(1.05, 0.02, 0.01));
+            seen.push(&Pose2::new(0.02, 0.0, 40f64.to_radians()));
+        }
+        let h = seen.hypotheses();
+        // Lengths 0 and 1 m, turns 0 and 45°: four steps, none the zero step twice.
+        assert_eq!(h.len(), 4, "{h:?}");
+        let has = |x: f64, y: f64, deg: f64| {
+            h.iter().any(|p| {
+                (p.x_m - x).abs() < 1e-9
+                    && (p.y_m - y).abs() < 1e-9
+                    && (p.theta_rad.to_degrees() - deg).abs() < 1e-9
+            })
+        };
+        let half = 22.5f64.to_radians();
+        assert!(has(0.0, 0.0, 0.0) && has(1.0, 0.0, 0.0) && has(0.0, 0.0, 45.0));
+        assert!(has(half.cos(), half.sin(), 45.0), "{h:?}");
+    }
+
+    #[test]
+    fn own_step_hypotheses_keep_the_values_seen_most_often() {
+        let mut seen = StepsSeen::default();
+        for k in 1..=12 {
+            // Length k × 0.5 m seen k times: 0 and the most often seen are kept.
+            for _ in 0..k {
+                seen.push(&Pose2::new(0.5 * k as f64, 0.0, 0.0));
+            }
+        }
+        seen.push(&Pose2::new(f64::NAN, 0.0, 0.0));
+        let h = seen.hypotheses();
+        let mut lengths: Vec<f64> = h.iter().map(|p| p.x_m).collect();
+        lengths.dedup();
+        let expect: Vec<f64> = std::iter::once(0.0)
+            .chain((14 - OWN_STEP_VALUES..=12).map(|k| 0.5 * k as f64))
+            .collect();
+        assert_eq!(lengths, expect);
+        // The memory is bounded.
+        for _ in 0..2 * STEPS_SEEN {
+            seen.push(&Pose2::new(1.0, 0.0, 0.0));
+        }
+        assert_eq!(seen.steps.len(), STEPS_SEEN);
     }
 }

@@ -1,5 +1,6 @@
 //! The speed last observed ([`ObservedSpeed`]): the motion a robot keeps along directions ICP
-//! cannot observe, and the time between scans that tells a gap in the log from jitter.
+//! cannot observe, and the time between scans that tells a gap in the log from jitter; the pose
+//! and time a scan's reach is bounded from ([`reach_reference`]).
 
 use super::estimator::acceleration_sigma_m_s2;
 use crate::geometry::Pose2;
@@ -306,6 +307,20 @@ impl ObservedSpeed {
     }
 }
 
+/// The pose a scan's motion is bounded from, and the seconds since it: the last `ok` pose is
+/// where the robot was for sure, and the time since then bounds how far it can be now, when
+/// the stamps say it (both known, increasing); otherwise `fallback` and no bound.
+pub(super) fn reach_reference(
+    last_ok: Option<(u32, Pose2, Option<f64>)>,
+    stamp_s: Option<f64>,
+    fallback: Pose2,
+) -> (Pose2, Option<f64>) {
+    match (last_ok, stamp_s) {
+        (Some((_, pose, Some(a))), Some(b)) if b > a => (pose, Some(b - a)),
+        _ => (fallback, None),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -559,5 +574,26 @@ mod tests {
             speed.record(Some(Pose2::new(0.1, 0.0, 0.0)), true, Some(bunched(i)));
         }
         assert_eq!(speed.gap_scale(Some(bunched(55))), 1.0);
+    }
+
+    #[test]
+    fn the_reach_is_bounded_only_when_the_stamps_increase() {
+        let ok = Pose2::new(1.0, 2.0, 0.3);
+        let fallback = Pose2::IDENTITY;
+        let at = |stamp: Option<f64>| Some((7, ok, stamp));
+        assert_eq!(
+            reach_reference(at(Some(10.0)), Some(10.25), fallback),
+            (ok, Some(0.25))
+        );
+        // Bunched, reordered or missing stamps say nothing about the time.
+        for (last, now) in [
+            (Some(10.0), Some(10.0)),
+            (Some(10.0), Some(9.0)),
+            (None, Some(1.0)),
+            (Some(1.0), None),
+        ] {
+            assert_eq!(reach_reference(at(last), now, fallback), (fallback, None));
+        }
+        assert_eq!(reach_reference(None, Some(1.0), fallback), (fallback, None));
     }
 }

@@ -9,8 +9,8 @@ use super::estimator::{
     trusted_fit_information, unknown_covariance, weakest_sigma_m,
 };
 use super::params::{MapperParams, MotionPrior, TrackParams};
-use super::recent::{LoosePoints, RecentMotion};
-use super::speed::{ObservedSpeed, scaled};
+use super::recent::{LoosePoints, RecentMotion, StepsSeen};
+use super::speed::{ObservedSpeed, reach_reference, scaled};
 use super::strategy::{TrackConfig, TrackInput, TriedPose, track_scan};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict};
@@ -89,6 +89,7 @@ pub struct Tracker {
     last_ok_odom: Option<Pose2>,
     loose: LoosePoints,
     recent: RecentMotion,
+    steps_seen: StepsSeen,
     lost_streak: u32,
     summary: TrackingSummary,
     /// Whether [`Tracker::track`] keeps each scan's ICP runs ([`TrackedScan::tries`]).
@@ -123,6 +124,7 @@ impl Tracker {
             last_ok_odom: None,
             loose: LoosePoints::default(),
             recent: RecentMotion::default(),
+            steps_seen: StepsSeen::default(),
             lost_streak: 0,
             summary: TrackingSummary::default(),
             record_tries: false,
@@ -293,13 +295,19 @@ impl Tracker {
         if placed {
             // Observed: tracked `ok` (or only `slowed`, see `Tracking::carries_tracking`) with
             // every direction observed; a motion between two observed scans is evidence of the
-            // robot's speed.
+            // robot's speed, and one the robot was seen to make (the own-step hypotheses).
             let observed =
                 tracking.carries_tracking() && align.is_some_and(|a| a.weak_directions == 0);
             if let Some(last) = self.last_pose {
                 self.recent.push(&last, &pose);
             }
             let step = self.last_pose.map(|last| last.between(&pose));
+            let after_ok = self
+                .last_ok
+                .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
+            if let Some(step) = step.filter(|_| observed && after_ok && !tracking.corner_won) {
+                self.steps_seen.push(&step);
+            }
             let dt_s = self.observed.step_dt_s(scan.stamp_s);
             let set_speed =
                 self.observed
@@ -319,20 +327,15 @@ impl Tracker {
                 self.summary.count_off_odometry(i);
             }
             // The step's length as tracked and as the log's odometry read it, metres.
-            let tracked_m = self
-                .last_pose
-                .map(|last| last.between(&pose).translation().length());
+            let tracked_m = step.map(|s| s.translation().length());
             let odometry_m = self
                 .last_odom
                 .zip(scan.odom_from_robot)
                 .map(|(a, b)| a.between(&b).translation().length());
             // The log's odometry against the scans, between consecutive `ok` scans.
             let ok = tracking.carries_tracking();
-            let last_was_ok = self
-                .last_ok
-                .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
             if let (true, Some(tracked_m), Some(odometry_m)) =
-                (ok && last_was_ok, tracked_m, odometry_m)
+                (ok && after_ok, tracked_m, odometry_m)
             {
                 self.summary.count_travel(odometry_m, tracked_m);
             }
@@ -559,6 +562,7 @@ impl Tracker {
             after_gap: self.one_step_over_gap(scan.stamp_s).filter(|_| !odometry),
             constant_velocity,
             recent: &self.recent,
+            steps_seen: &self.steps_seen,
             lost_streak: self.lost_streak,
             odometry_witness: witness,
             odometry_step,
@@ -584,20 +588,6 @@ fn moved_by_odometry(ok: Option<Pose2>, then: Option<Pose2>, now: Option<Pose2>)
     Some(ok?.compose(&then?.between(&now?)))
 }
 
-/// The pose a scan's motion is bounded from, and the seconds since it: the last `ok` pose is
-/// where the robot was for sure, and the time since then bounds how far it can be now, when
-/// the stamps say it (both known, increasing); otherwise `fallback` and no bound.
-fn reach_reference(
-    last_ok: Option<(u32, Pose2, Option<f64>)>,
-    stamp_s: Option<f64>,
-    fallback: Pose2,
-) -> (Pose2, Option<f64>) {
-    match (last_ok, stamp_s) {
-        (Some((_, pose, Some(a))), Some(b)) if b > a => (pose, Some(b - a)),
-        _ => (fallback, None),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -612,26 +602,5 @@ mod tests {
         assert!((moved.x_m - 1.0).abs() < 1e-12 && (moved.y_m - 2.5).abs() < 1e-12);
         assert_eq!(moved_by_odometry(Some(ok), None, Some(now)), None);
         assert_eq!(moved_by_odometry(None, Some(then), Some(now)), None);
-    }
-
-    #[test]
-    fn the_reach_is_bounded_only_when_the_stamps_increase() {
-        let ok = Pose2::new(1.0, 2.0, 0.3);
-        let fallback = Pose2::IDENTITY;
-        let at = |stamp: Option<f64>| Some((7, ok, stamp));
-        assert_eq!(
-            reach_reference(at(Some(10.0)), Some(10.25), fallback),
-            (ok, Some(0.25))
-        );
-        // Bunched, reordered or missing stamps say nothing about the time.
-        for (last, now) in [
-            (Some(10.0), Some(10.0)),
-            (Some(10.0), Some(9.0)),
-            (None, Some(1.0)),
-            (Some(1.0), None),
-        ] {
-            assert_eq!(reach_reference(at(last), now, fallback), (fallback, None));
-        }
-        assert_eq!(reach_reference(None, Some(1.0), fallback), (fallback, None));
     }
 }

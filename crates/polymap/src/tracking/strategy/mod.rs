@@ -74,7 +74,9 @@
 //!    odometry prior only a pose turned at most `tracking.odometry.odometry_max_window_deg` from the odometry
 //!    guess (or from the constant-velocity guess where odometry disagrees with it) may win (any
 //!    may veto); with point-to-segment ICP only a pose within reach of the
-//!    last `ok` pose in the time the stamps give ([`Attempt::within_reach`]).
+//!    last `ok` pose in the time the stamps give ([`Attempt::within_reach`]). Where no corner
+//!    pose wins, without odometry, ICP from the previous pose moved by steps like the robot's
+//!    own ([`StepsSeen::hypotheses`]), by the same test ([`Attempt::icp_from_own_steps`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]; ICP from the rival replaces a pose that no corner pose
@@ -98,7 +100,7 @@ mod starts;
 mod tests;
 
 use super::params::{MapperParams, TrackParams};
-use super::recent::{LoosePoints, RecentMotion};
+use super::recent::{LoosePoints, RecentMotion, StepsSeen};
 use super::verdict::{OdometryWitness, Reason, Tracking, Verdict, verdict};
 use super::window::WindowMatch;
 use crate::align::{AlignMethod, AlignParams, AlignResult, PointTargets, thin_points};
@@ -152,6 +154,8 @@ pub struct TrackInput<'a> {
     pub constant_velocity: Option<Pose2>,
     /// The largest steps and turns of the last scans.
     pub recent: &'a RecentMotion,
+    /// The steps the robot was seen to make (the own-step hypotheses).
+    pub steps_seen: &'a StepsSeen,
     /// Scans lost in a row just before this one.
     pub lost_streak: u32,
     /// Without the odometry prior, the log's odometry as a witness of the step, where the

@@ -76,6 +76,7 @@ fn with_attempt_starts<R>(
             .map(|e| e.segment)
             .collect();
     let (loose, recent) = (LoosePoints::default(), RecentMotion::default());
+    let seen = StepsSeen::default();
     let input = TrackInput {
         points_in_robot: &points,
         segments_in_robot: &segments,
@@ -91,6 +92,7 @@ fn with_attempt_starts<R>(
         after_gap: None,
         constant_velocity: None,
         recent: &recent,
+        steps_seen: &seen,
         lost_streak,
         odometry_witness: None,
         odometry_step: None,
@@ -241,6 +243,61 @@ fn a_motion_beyond_the_window_is_found_by_corner_hypotheses() {
     assert!(e.translation().length() > 0.5, "{e:?}");
     assert!(!tracking.corner_won);
     assert_ne!(tracking.verdict, Verdict::Ok, "{tracking:?}");
+}
+
+/// Where ICP from the guess fits poorly (the scene of [`beyond_the_window`]), a step like one
+/// the robot made before (1.45 m turning 12.6°, taken to 1.5 m and 15°) from the previous pose
+/// reaches the truth (Orebro, sparse, scan 61: 3.05 m after steps of 1 m, no corner in view).
+/// With no step seen there is no hypothesis.
+#[test]
+fn a_step_like_one_the_robot_made_before_finds_a_scan_beyond_the_window() {
+    let (world, map, truth, guess) = beyond_the_window();
+    let t = 15f64.to_radians();
+    let anchor =
+        truth.compose(&Pose2::new(1.5 * (t / 2.0).cos(), -1.5 * (t / 2.0).sin(), -t).inverse());
+    let mut seen = StepsSeen::default();
+    for _ in 0..5 {
+        seen.push(&Pose2::new(1.0, 0.0, 0.0));
+    }
+    seen.push(&Pose2::new(1.44, -0.15, -0.22));
+    let scene = (&world[..], &map, truth, guess, 0);
+    let run = |seen: &StepsSeen| {
+        with_attempt(
+            AlignMethod::PointToSegment,
+            scene,
+            &TrackParams::default(),
+            |t| {
+                let input = TrackInput {
+                    anchor,
+                    steps_seen: seen,
+                    ..*t.input
+                };
+                let attempt = Attempt {
+                    input: &input,
+                    ..*t
+                };
+                let current = attempt.run_near(guess);
+                (attempt.icp_from_own_steps(&current), current)
+            },
+        )
+    };
+    let (found, current) = run(&seen);
+    assert!(
+        truth
+            .between(&current.map_from_robot)
+            .translation()
+            .length()
+            > 0.5,
+        "{current:?}"
+    );
+    assert_near(
+        &truth,
+        &(
+            found,
+            verdict(found.as_ref(), 100, false, &TrackParams::default()),
+        ),
+    );
+    assert!(run(&StepsSeen::default()).0.is_none());
 }
 
 /// Tracks the scan of `scene` (point-to-segment ICP) after the `recent` motion, from
