@@ -77,13 +77,14 @@ impl Attempt<'_> {
     }
 
     /// Where no corner pose won, ICP from the previous pose moved by steps like the robot's
-    /// own ([`StepsSeen::hypotheses`](crate::tracking::StepsSeen::hypotheses)); the best when it wins by ratio over `current` within
-    /// reach, and no distinct one of them has `CORNER_RIVAL_BELOW` of its inliers, as for a
-    /// corner pose. Not with the odometry prior, whose guess already holds the step. Orebro
-    /// (sparse), scan 61: after steps of about 1 m the robot drove 3.05 m turning 13°, 2 m
-    /// beyond the window; no corner was in view, ICP from the starts fitted 32 % of the points
-    /// and the scan was lost, and the seven scans of the spin that followed with it. A step of
-    /// 3 m and 15° from the robot's own reaches it, at 73 %.
+    /// own ([`StepsSeen::hypotheses`](crate::tracking::StepsSeen::hypotheses)); the best when
+    /// it wins by ratio over `current` within reach, and no distinct one of them has
+    /// `CORNER_RIVAL_BELOW` of its inliers, as for a corner pose. Not with the odometry prior,
+    /// whose guess already holds the step. Orebro (sparse), scan 61: after steps of about 1 m
+    /// the robot drove 3.05 m turning 13°, 2 m beyond the window; no corner was in view, ICP
+    /// from the starts fitted 32 % of the points and the scan was lost, and the seven scans of
+    /// the spin that followed with it. A step of 3 m and 15° from the robot's own reaches it,
+    /// at 73 %.
     pub(super) fn icp_from_own_steps(&self, current: &AlignResult) -> Option<AlignResult> {
         if self.config.starts.motion_prior == MotionPrior::Odometry {
             return None;
