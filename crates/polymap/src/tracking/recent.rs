@@ -42,12 +42,14 @@ impl RecentMotion {
     }
 }
 
-/// The steps the robot was seen to make: each motion between two scans tracked `ok` in a row
-/// with every direction observed (not a corner pose's), as its length and signed turn, the
-/// last [`STEPS_SEEN`]. What a robot did once it may do again: where the prediction and its
-/// window lose a scan (a robot that drove 3 m between scans after steps of 1 m), a step like
-/// one of these finds it ([`StepsSeen::hypotheses`]). On a dense log every step is short and
-/// straight, and the hypotheses are the previous pose and a few centimetres from it.
+/// The steps the robot was seen to make: each motion into a scan tracked `ok` (or only
+/// `slowed`) with every direction observed, not placed by a corner pose, from the scan just
+/// before when that one was tracked `ok` (or `slowed`); as its length (unsigned: a step backed
+/// is kept as one driven forward) and signed turn, the last [`STEPS_SEEN`]. What a robot did
+/// once it may do again: where the prediction and its window lose a scan (a robot that drove
+/// 3 m between scans after steps of 1 m), a step like one of these finds it
+/// ([`StepsSeen::hypotheses`]). On a dense log every step rounds to no motion, and the one
+/// hypothesis is the previous pose.
 #[derive(Debug, Clone, Default)]
 pub struct StepsSeen {
     steps: std::collections::VecDeque<(f64, f64)>,

@@ -80,7 +80,8 @@ pub struct Tracking {
     /// recovery's, or ICP's from a pose along an axis ICP observed weakly or not at all (the
     /// last may win where the window search did not run).
     pub search_won: bool,
-    /// Whether ICP from a corner hypothesis ([`crate::tracking::corner_seeds`]) won: the scan
+    /// Whether ICP from a corner hypothesis ([`crate::tracking::corner_seeds`]) won, or where
+    /// none did, from a step like the robot's own ([`crate::tracking::StepsSeen`]): the scan
     /// moved beyond the window search.
     #[serde(default)]
     pub corner_won: bool,

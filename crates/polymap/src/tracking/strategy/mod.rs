@@ -154,7 +154,8 @@ pub struct TrackInput<'a> {
     pub constant_velocity: Option<Pose2>,
     /// The largest steps and turns of the last scans.
     pub recent: &'a RecentMotion,
-    /// The steps the robot was seen to make (the own-step hypotheses).
+    /// The steps the robot was seen to make (the own-step hypotheses, robot frame of the pose
+    /// they start from; after lost scans that is the last, lost, pose).
     pub steps_seen: &'a StepsSeen,
     /// Scans lost in a row just before this one.
     pub lost_streak: u32,
