@@ -65,12 +65,7 @@ impl Attempt<'_> {
             turn(&r.map_from_robot)
                 <= turn(&best.map_from_robot) + CORNER_RIVAL_TURN_DEG.to_radians()
         };
-        let rival = all.iter().any(|r| {
-            tracking.apart(&best.map_from_robot, &r.map_from_robot)
-                && r.inliers as f64 >= CORNER_RIVAL_BELOW * best.inliers as f64
-                && as_plausible(r)
-        });
-        match self.wins_by_ratio(&best, current) && !rival {
+        match self.wins_by_ratio(&best, current) && !self.rivalled(&best, &all, as_plausible) {
             true => Some(best),
             false => self.icp_from_own_steps(current),
         }
@@ -101,13 +96,26 @@ impl Attempt<'_> {
                 .copied()
                 .filter(|r| self.within_reach(&r.map_from_robot)),
         )?;
-        let rival = all.iter().any(|r| {
+        (self.wins_by_ratio(&best, current) && !self.rivalled(&best, &all, |_| true))
+            .then_some(best)
+    }
+
+    /// Whether a pose among `all` that `counts` lies apart from `best` (more than
+    /// `tracking.verdict.rival_apart_m` or `rival_apart_deg`) with `CORNER_RIVAL_BELOW` of its
+    /// inliers: a hypothesis nearly as good elsewhere vetoes the best.
+    fn rivalled(
+        &self,
+        best: &AlignResult,
+        all: &[AlignResult],
+        counts: impl Fn(&AlignResult) -> bool,
+    ) -> bool {
+        all.iter().any(|r| {
             self.config
                 .tracking
                 .apart(&best.map_from_robot, &r.map_from_robot)
                 && r.inliers as f64 >= CORNER_RIVAL_BELOW * best.inliers as f64
-        });
-        (self.wins_by_ratio(&best, current) && !rival).then_some(best)
+                && counts(r)
+        })
     }
 
     /// Whether `pose` turns at most [`corner_turn_rad`] from the guess (any turn without
