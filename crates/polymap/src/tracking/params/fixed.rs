@@ -117,6 +117,17 @@ pub const CORNER_RIVAL_BELOW: f64 = 0.85;
 /// turned 166° at 106 (ACES every 10th scan, phase 0, scan 477).
 pub const CORNER_RIVAL_TURN_DEG: f64 = 45.0;
 
+/// The hypotheses of steps like the robot's own are screened by ICP on every this many of the
+/// scan's thinned points (a third of the cost of each run)...
+pub const OWN_STEP_SCREEN_EVERY: usize = 3;
+
+/// ...and ICP on every point runs from this many of the screened poses, the best distinct
+/// ones (apart by `verdict.rival_apart_m` or `rival_apart_deg`): the best and its rival. The
+/// screen ranks the hypotheses as ICP on every point does where it matters (the sparse logs:
+/// 32 of 60 runs within 0.25 m either way) at about a quarter of the cost (the sparse Orebro
+/// log 432 → 572 scans/s).
+pub const OWN_STEP_REFINED: usize = 2;
+
 /// Only segments at least this long form corners, metres (a scan's segments are short: clutter
 /// and door frames cut its walls); the window's smallest half-width, `search.min_window_m`.
 pub const CORNER_MIN_SEGMENT_M: f64 = 0.3;

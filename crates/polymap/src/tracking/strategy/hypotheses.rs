@@ -2,15 +2,17 @@
 //! they must keep to win (the robot's reach in the stamps' time, the turn from odometry's
 //! guess, a clear margin of inliers).
 
-use super::{Attempt, best_of};
-use crate::align::{AlignMethod, AlignResult, Candidate};
-use crate::geometry::{Pose2, normalize_angle_rad};
+use super::{Attempt, best_of, better};
+use crate::align::{AlignMethod, AlignResult, Candidate, align_points_and_loose};
+use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::tracking::corner_seeds;
 use crate::tracking::params::{
-    CORNER_RIVAL_BELOW, CORNER_RIVAL_TURN_DEG, CORNER_WIN_RATIO, SEARCH_WIN_MARGIN,
+    CORNER_RIVAL_BELOW, CORNER_RIVAL_TURN_DEG, CORNER_WIN_RATIO, OWN_STEP_REFINED,
+    OWN_STEP_SCREEN_EVERY, SEARCH_WIN_MARGIN,
 };
 use crate::tracking::params::{MotionPrior, TrackParams};
 use crate::tracking::verdict::{Tracking, Verdict, verdict};
+use std::cmp::Ordering;
 
 /// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
 /// far as the window search may while tracking (`tracking.odometry.odometry_max_window_deg`): its guess carries
@@ -72,9 +74,10 @@ impl Attempt<'_> {
     }
 
     /// Where no corner pose won, ICP from the previous pose moved by steps like the robot's
-    /// own ([`StepsSeen::hypotheses`](crate::tracking::StepsSeen::hypotheses)); the best when
-    /// it wins by ratio over `current` within reach, and no distinct one of them has
-    /// `CORNER_RIVAL_BELOW` of its inliers, as for a corner pose. Not with the odometry prior,
+    /// own ([`StepsSeen::hypotheses`](crate::tracking::StepsSeen::hypotheses)), screened
+    /// ([`Attempt::screened`]): ICP on every point from the best two the screen found; the
+    /// better when it wins by ratio over `current` within reach, and the other, if distinct,
+    /// has not `CORNER_RIVAL_BELOW` of its inliers, as for a corner pose. Not with the odometry prior,
     /// whose guess already holds the step. Orebro (sparse), scan 61: after steps of about 1 m
     /// the robot drove 3.05 m turning 13°, 2 m beyond the window; no corner was in view, ICP
     /// from the starts fitted 32 % of the points and the scan was lost, and the seven scans of
@@ -85,11 +88,16 @@ impl Attempt<'_> {
             return None;
         }
         let input = self.input;
-        let all: Vec<AlignResult> = input
+        let starts: Vec<Pose2> = input
             .steps_seen
             .hypotheses()
             .iter()
-            .map(|step| self.run_near(input.anchor.compose(step)))
+            .map(|step| input.anchor.compose(step))
+            .collect();
+        let all: Vec<AlignResult> = self
+            .screened(&starts)
+            .iter()
+            .map(|&start| self.run_near(start))
             .collect();
         let best = best_of(
             all.iter()
@@ -98,6 +106,54 @@ impl Attempt<'_> {
         )?;
         (self.wins_by_ratio(&best, current) && !self.rivalled(&best, &all, |_| true))
             .then_some(best)
+    }
+
+    /// Where ICP on every point should run among `starts`: the poses ICP on every
+    /// [`OWN_STEP_SCREEN_EVERY`]th point finds from them, the best [`OWN_STEP_REFINED`]
+    /// distinct ones (apart as a rival is); ICP from a screened pose starts near where it
+    /// ends. Not screened with endpoint ICP (`--preset paper`): every start.
+    pub(super) fn screened(&self, starts: &[Pose2]) -> Vec<Pose2> {
+        if self.config.align.method != AlignMethod::PointToSegment {
+            return starts.to_vec();
+        }
+        let few: Vec<Vec2> = self
+            .points
+            .iter()
+            .step_by(OWN_STEP_SCREEN_EVERY)
+            .copied()
+            .collect();
+        let input = self.input;
+        let mut screened: Vec<AlignResult> = starts
+            .iter()
+            .map(|&start| {
+                align_points_and_loose(
+                    &few,
+                    input.map,
+                    self.targets,
+                    start,
+                    input.unobserved_to,
+                    None,
+                    self.config.align,
+                )
+            })
+            .collect();
+        // Best first, the first among equals as `best_of` takes it.
+        screened.sort_by(|a, b| match (better(a, b), better(b, a)) {
+            (true, _) => Ordering::Less,
+            (_, true) => Ordering::Greater,
+            _ => Ordering::Equal,
+        });
+        let tracking = self.config.tracking;
+        let mut chosen: Vec<Pose2> = Vec::with_capacity(OWN_STEP_REFINED);
+        for r in &screened {
+            if chosen.len() == OWN_STEP_REFINED {
+                break;
+            }
+            if chosen.iter().all(|c| tracking.apart(c, &r.map_from_robot)) {
+                chosen.push(r.map_from_robot);
+            }
+        }
+        chosen
     }
 
     /// Whether a pose among `all` that `counts` lies apart from `best` (more than

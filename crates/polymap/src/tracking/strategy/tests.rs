@@ -5,7 +5,7 @@ use crate::extract::{ExtractParams, extract_segments};
 use crate::testutil::{cast_360 as cast, map_of, room, seg};
 use crate::tracking::corner_seeds;
 use crate::tracking::params::MotionPrior;
-use crate::tracking::params::{CORNER_RIVAL_BELOW, CORNER_WIN_RATIO};
+use crate::tracking::params::{CORNER_RIVAL_BELOW, CORNER_WIN_RATIO, OWN_STEP_REFINED};
 use crate::tracking::window::search_window;
 
 /// Tracks a scan taken at `truth` from `guess` (also the anchor), after `lost_streak` scans
@@ -299,6 +299,49 @@ fn a_step_like_one_the_robot_made_before_finds_a_scan_beyond_the_window() {
         ),
     );
     assert!(run(&StepsSeen::default()).0.is_none());
+}
+
+#[test]
+fn the_screen_keeps_the_best_two_distinct_steps_with_the_truth_first() {
+    let (world, map, truth, guess) = beyond_the_window();
+    let t = 18f64.to_radians();
+    let anchor =
+        truth.compose(&Pose2::new(1.65 * (t / 2.0).cos(), -1.65 * (t / 2.0).sin(), -t).inverse());
+    let mut seen = StepsSeen::default();
+    for _ in 0..5 {
+        seen.push(&Pose2::new(1.0, 0.0, 0.0));
+    }
+    seen.push(&Pose2::new(1.44, -0.15, -0.22));
+    let scene = (&world[..], &map, truth, guess, 0);
+    let tracking = TrackParams::default();
+    let (starts, screened) = with_attempt(AlignMethod::PointToSegment, scene, &tracking, |t| {
+        let input = TrackInput {
+            anchor,
+            steps_seen: &seen,
+            ..*t.input
+        };
+        let attempt = Attempt {
+            input: &input,
+            ..*t
+        };
+        let starts: Vec<Pose2> = seen
+            .hypotheses()
+            .iter()
+            .map(|s| anchor.compose(s))
+            .collect();
+        let screened = attempt.screened(&starts);
+        (starts, screened)
+    });
+    // Six hypotheses (no motion, 1 m and 1.5 m, each straight and turned −15°), two kept:
+    // the first near the truth (ICP on a third of the points found it), the second apart.
+    assert_eq!(starts.len(), 6, "{starts:?}");
+    assert_eq!(screened.len(), OWN_STEP_REFINED, "{screened:?}");
+    let off = truth.between(&screened[0]);
+    assert!(
+        off.translation().length() < 0.1 && off.theta_rad.abs() < 2f64.to_radians(),
+        "{screened:?}"
+    );
+    assert!(tracking.apart(&screened[0], &screened[1]), "{screened:?}");
 }
 
 /// Tracks the scan of `scene` (point-to-segment ICP) after the `recent` motion, from
