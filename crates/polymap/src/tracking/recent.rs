@@ -44,8 +44,8 @@ impl RecentMotion {
 
 /// The steps the robot was seen to make: each motion into a scan tracked `ok` (or only
 /// `slowed`) with every direction observed, not placed by a corner pose, from the scan just
-/// before when that one was tracked `ok` (or `slowed`); as its length (unsigned: a step backed
-/// is kept as one driven forward) and signed turn, the last [`STEPS_SEEN`]. What a robot did
+/// before when that one was tracked `ok` (or `slowed`); as its length (negative for a step
+/// backed) and signed turn, the last [`STEPS_SEEN`]. What a robot did
 /// once it may do again: where the prediction and its window lose a scan (a robot that drove
 /// 3 m between scans after steps of 1 m), a step like one of these finds it
 /// ([`StepsSeen::hypotheses`]). On a dense log every step rounds to no motion, and the one
@@ -73,10 +73,11 @@ pub const OWN_STEP_VALUES: usize = 6;
 
 impl StepsSeen {
     /// Records a step (the motion from one scan's pose to the next's, robot frame of the
-    /// first).
+    /// first): its length, negative for a step backed (behind the first pose), and its turn.
     pub fn push(&mut self, step: &Pose2) {
+        let length = step.translation().length();
         let (length, turn) = (
-            step.translation().length(),
+            if step.x_m < 0.0 { -length } else { length },
             normalize_angle_rad(step.theta_rad),
         );
         if !(length.is_finite() && turn.is_finite()) {
@@ -90,8 +91,8 @@ impl StepsSeen {
 
     /// Steps like the robot's own (robot frame of the pose they start from): every length
     /// seen (to [`OWN_STEP_LENGTH_M`]) with every turn seen (to [`OWN_STEP_TURN_DEG`]), and
-    /// none, each length driven along the arc's chord (at half the turn), standing still for
-    /// a length of 0; empty while no step was seen.
+    /// none, each length driven along the arc's chord (at half the turn), backed for a length
+    /// seen backed, standing still for a length of 0; empty while no step was seen.
     pub fn hypotheses(&self) -> Vec<Pose2> {
         if self.steps.is_empty() {
             return Vec::new();
@@ -188,6 +189,18 @@ mod tests {
         let half = 22.5f64.to_radians();
         assert!(has(0.0, 0.0, 0.0) && has(1.0, 0.0, 0.0) && has(0.0, 0.0, 45.0));
         assert!(has(half.cos(), half.sin(), 45.0), "{h:?}");
+        // A step backed turning −30° is proposed backed along its chord, not driven forward.
+        let mut backed = StepsSeen::default();
+        backed.push(&Pose2::new(-0.97, 0.26, -30f64.to_radians()));
+        let h = backed.hypotheses();
+        let half = -15f64.to_radians();
+        assert!(
+            h.iter().any(|p| (p.x_m + half.cos()).abs() < 1e-9
+                && (p.y_m + half.sin()).abs() < 1e-9
+                && (p.theta_rad.to_degrees() + 30.0).abs() < 1e-9),
+            "{h:?}"
+        );
+        assert!(h.iter().all(|p| p.x_m <= 0.0), "{h:?}");
     }
 
     #[test]
