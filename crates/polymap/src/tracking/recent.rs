@@ -67,8 +67,8 @@ pub const OWN_STEP_LENGTH_M: f64 = 0.5;
 pub const OWN_STEP_TURN_DEG: f64 = 15.0;
 
 /// ...and take at most this many lengths and turns each, the most often seen (each pair
-/// costs an ICP run: 36 at most). Eight of each tracked the sparse logs alike; four lost
-/// Orebro's 3 m step (a length seen only a few times).
+/// costs a screening ICP run: 36 at most). Eight of each tracked the sparse logs alike; four
+/// lost Orebro's 3 m step (a length seen only a few times).
 pub const OWN_STEP_VALUES: usize = 6;
 
 impl StepsSeen {
@@ -111,7 +111,8 @@ impl StepsSeen {
 }
 
 /// The values (rounded to multiples of `q`) seen most often, at most [`OWN_STEP_VALUES`],
-/// 0 always among them, in increasing order (ties to the smaller).
+/// 0 always among them, in increasing order (ties to the smaller in size, then the positive:
+/// a length driven, a turn to the left).
 fn most_seen(values: impl Iterator<Item = f64>, q: f64) -> Vec<f64> {
     let mut counts: std::collections::BTreeMap<i64, usize> = std::collections::BTreeMap::new();
     for v in values {
@@ -119,7 +120,10 @@ fn most_seen(values: impl Iterator<Item = f64>, q: f64) -> Vec<f64> {
     }
     counts.insert(0, usize::MAX);
     let mut by_count: Vec<(i64, usize)> = counts.into_iter().collect();
-    by_count.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+    by_count.sort_by(|a, b| {
+        let size = |k: i64| (k.unsigned_abs(), k < 0);
+        b.1.cmp(&a.1).then(size(a.0).cmp(&size(b.0)))
+    });
     let mut kept: Vec<i64> = by_count
         .into_iter()
         .take(OWN_STEP_VALUES)
@@ -179,28 +183,57 @@ mod tests {
         let h = seen.hypotheses();
         // Lengths 0 and 1 m, turns 0 and 45°: four steps, none the zero step twice.
         assert_eq!(h.len(), 4, "{h:?}");
-        let has = |x: f64, y: f64, deg: f64| {
-            h.iter().any(|p| {
-                (p.x_m - x).abs() < 1e-9
-                    && (p.y_m - y).abs() < 1e-9
-                    && (p.theta_rad.to_degrees() - deg).abs() < 1e-9
-            })
-        };
         let half = 22.5f64.to_radians();
-        assert!(has(0.0, 0.0, 0.0) && has(1.0, 0.0, 0.0) && has(0.0, 0.0, 45.0));
-        assert!(has(half.cos(), half.sin(), 45.0), "{h:?}");
-        // A step backed turning −30° is proposed backed along its chord, not driven forward.
-        let mut backed = StepsSeen::default();
-        backed.push(&Pose2::new(-0.97, 0.26, -30f64.to_radians()));
-        let h = backed.hypotheses();
+        assert!(has(&h, 0.0, 0.0, 0.0) && has(&h, 1.0, 0.0, 0.0) && has(&h, 0.0, 0.0, 45.0));
+        assert!(has(&h, half.cos(), half.sin(), 45.0), "{h:?}");
+    }
+
+    /// Whether `h` holds the step `(x, y)` metres turning `deg` degrees.
+    fn has(h: &[Pose2], x: f64, y: f64, deg: f64) -> bool {
+        h.iter().any(|p| {
+            (p.x_m - x).abs() < 1e-9
+                && (p.y_m - y).abs() < 1e-9
+                && (p.theta_rad.to_degrees() - deg).abs() < 1e-9
+        })
+    }
+
+    #[test]
+    fn a_step_seen_backed_is_proposed_backed() {
+        let mut seen = StepsSeen::default();
+        seen.push(&Pose2::new(-0.97, 0.26, -30f64.to_radians()));
+        let h = seen.hypotheses();
+        // Backed 1 m turning −30°: along the chord at −15°, behind; nothing ahead.
         let half = -15f64.to_radians();
-        assert!(
-            h.iter().any(|p| (p.x_m + half.cos()).abs() < 1e-9
-                && (p.y_m + half.sin()).abs() < 1e-9
-                && (p.theta_rad.to_degrees() + 30.0).abs() < 1e-9),
-            "{h:?}"
-        );
+        assert!(has(&h, -half.cos(), -half.sin(), -30.0), "{h:?}");
         assert!(h.iter().all(|p| p.x_m <= 0.0), "{h:?}");
+    }
+
+    #[test]
+    fn own_step_ties_go_to_the_shorter_step_then_the_one_driven() {
+        let mut seen = StepsSeen::default();
+        // Seven lengths and seven turns, each seen once: 0 and five of each are kept, the
+        // smaller in size first, then the length driven (the turn to the left): not the 2.5 m
+        // backed, nor the turn of 45° to the right.
+        let lengths_m = [-2.5, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0];
+        let turns_deg = [-45.0, 15.0, -15.0, 30.0, -30.0, 45.0, 60.0];
+        for (length_m, turn_deg) in lengths_m.into_iter().zip(turns_deg) {
+            seen.push(&Pose2::new(length_m, 0.0, f64::to_radians(turn_deg)));
+        }
+        let h = seen.hypotheses();
+        let mut lengths: Vec<f64> = h
+            .iter()
+            .map(|p| (p.x_m.hypot(p.y_m).copysign(p.x_m) * 1e3).round() / 1e3)
+            .collect();
+        lengths.sort_by(f64::total_cmp);
+        lengths.dedup_by(|a, b| (*a - *b).abs() < 1e-9);
+        assert_eq!(lengths, [0.0, 0.5, 1.0, 1.5, 2.0, 2.5], "{h:?}");
+        let mut turns: Vec<i64> = h
+            .iter()
+            .map(|p| p.theta_rad.to_degrees().round() as i64)
+            .collect();
+        turns.sort_unstable();
+        turns.dedup();
+        assert_eq!(turns, [-30, -15, 0, 15, 30, 45], "{h:?}");
     }
 
     #[test]

@@ -2,8 +2,8 @@
 //! they must keep to win (the robot's reach in the stamps' time, the turn from odometry's
 //! guess, a clear margin of inliers).
 
-use super::{Attempt, best_of, better};
-use crate::align::{AlignMethod, AlignResult, Candidate, align_points_and_loose};
+use super::{Attempt, best_of};
+use crate::align::{AlignMethod, AlignResult, Candidate};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use crate::tracking::corner_seeds;
 use crate::tracking::params::{
@@ -12,7 +12,6 @@ use crate::tracking::params::{
 };
 use crate::tracking::params::{MotionPrior, TrackParams};
 use crate::tracking::verdict::{Tracking, Verdict, verdict};
-use std::cmp::Ordering;
 
 /// How far a winning corner pose may turn the scan from the guess: with the odometry prior, as
 /// far as the window search may while tracking (`tracking.odometry.odometry_max_window_deg`): its guess carries
@@ -87,15 +86,8 @@ impl Attempt<'_> {
         if self.config.starts.motion_prior == MotionPrior::Odometry {
             return None;
         }
-        let input = self.input;
-        let starts: Vec<Pose2> = input
-            .steps_seen
-            .hypotheses()
-            .iter()
-            .map(|step| input.anchor.compose(step))
-            .collect();
         let all: Vec<AlignResult> = self
-            .screened(&starts)
+            .screened(&self.own_step_starts())
             .iter()
             .map(|&start| self.run_near(start))
             .collect();
@@ -108,10 +100,23 @@ impl Attempt<'_> {
             .then_some(best)
     }
 
-    /// Where ICP on every point should run among `starts`: the poses ICP on every
-    /// [`OWN_STEP_SCREEN_EVERY`]th point finds from them, the best [`OWN_STEP_REFINED`]
-    /// distinct ones (apart as a rival is); ICP from a screened pose starts near where it
-    /// ends. Not screened with endpoint ICP (`--preset paper`): every start.
+    /// The starts of the own-step hypotheses (map frame): the previous pose moved by each
+    /// step of [`StepsSeen::hypotheses`](crate::tracking::StepsSeen::hypotheses).
+    pub(super) fn own_step_starts(&self) -> Vec<Pose2> {
+        let input = self.input;
+        let steps = input.steps_seen.hypotheses();
+        steps
+            .iter()
+            .map(|step| input.anchor.compose(step))
+            .collect()
+    }
+
+    /// Where ICP on every point should run among `starts` (map frame): the poses ICP on every
+    /// [`OWN_STEP_SCREEN_EVERY`]th point finds from them (a start itself where the screen had
+    /// too few correspondences to move it), the best [`OWN_STEP_REFINED`] distinct ones (apart
+    /// as a rival is); ICP from a screened pose starts near where it ends. The screening runs
+    /// are not recorded as tries (their inliers count a third of the points). Not screened
+    /// with endpoint ICP (`--preset paper`): every start.
     pub(super) fn screened(&self, starts: &[Pose2]) -> Vec<Pose2> {
         if self.config.align.method != AlignMethod::PointToSegment {
             return starts.to_vec();
@@ -122,35 +127,32 @@ impl Attempt<'_> {
             .step_by(OWN_STEP_SCREEN_EVERY)
             .copied()
             .collect();
-        let input = self.input;
-        let mut screened: Vec<AlignResult> = starts
+        let least = self.config.align.min_correspondences;
+        let mut screened: Vec<(Pose2, AlignResult)> = starts
             .iter()
             .map(|&start| {
-                align_points_and_loose(
-                    &few,
-                    input.map,
-                    self.targets,
-                    start,
-                    input.unobserved_to,
-                    None,
-                    self.config.align,
-                )
+                let r = self.align_on(&few, start, None);
+                // Too few correspondences: ICP put the pose on the fallback, not near a fit.
+                match r.correspondences >= least {
+                    true => (r.map_from_robot, r),
+                    false => (start, r),
+                }
             })
             .collect();
-        // Best first, the first among equals as `best_of` takes it.
-        screened.sort_by(|a, b| match (better(a, b), better(b, a)) {
-            (true, _) => Ordering::Less,
-            (_, true) => Ordering::Greater,
-            _ => Ordering::Equal,
+        // Best first (`better`, in a total order), the first among equals as `best_of` takes it.
+        screened.sort_by(|(_, a), (_, b)| {
+            b.inliers
+                .cmp(&a.inliers)
+                .then(a.residual_rms_m.total_cmp(&b.residual_rms_m))
         });
         let tracking = self.config.tracking;
         let mut chosen: Vec<Pose2> = Vec::with_capacity(OWN_STEP_REFINED);
-        for r in &screened {
+        for (pose, _) in &screened {
             if chosen.len() == OWN_STEP_REFINED {
                 break;
             }
-            if chosen.iter().all(|c| tracking.apart(c, &r.map_from_robot)) {
-                chosen.push(r.map_from_robot);
+            if chosen.iter().all(|c| tracking.apart(c, pose)) {
+                chosen.push(*pose);
             }
         }
         chosen

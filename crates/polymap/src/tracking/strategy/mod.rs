@@ -76,7 +76,9 @@
 //!    may veto); with point-to-segment ICP only a pose within reach of the
 //!    last `ok` pose in the time the stamps give ([`Attempt::within_reach`]). Where no corner
 //!    pose wins, without odometry, ICP from the previous pose moved by steps like the robot's
-//!    own ([`StepsSeen::hypotheses`]), by the same test ([`Attempt::icp_from_own_steps`]).
+//!    own ([`StepsSeen::hypotheses`]), screened on a third of the points, ICP on every point
+//!    from the best two distinct ([`Attempt::screened`]), by the same test, the other of the
+//!    two the only rival ([`Attempt::icp_from_own_steps`]).
 //! 5. **Verdict** ([`verdict`]) on the final pose, `weak` (`ambiguous`) when the window search
 //!    found a rival (also when a corner pose won: the scan then stays out of the map, see
 //!    [`Tracking::enters_map`]; ICP from the rival replaces a pose that no corner pose
@@ -425,7 +427,9 @@ struct Attempt<'a> {
 }
 
 /// One ICP run of a scan's tracking: where it converged and how well the scan fitted there.
-/// Every start, search pose, check along an axis and hypothesis the strategy tried gives one:
+/// Every start, search pose, check along an axis and hypothesis the strategy tried gives one
+/// (not the own-step hypotheses' screening runs on a third of the points, only the ICP runs on
+/// every point from the two poses kept):
 /// the strategy's pose is one of them (the tracker may then move it towards the motion prior,
 /// `tracking/estimator.rs`), the others are the candidates it was preferred to
 /// (`diagnostics.jsonl`: `tries`).

@@ -246,10 +246,7 @@ impl Attempt<'_> {
         let (input, params) = (self.input, self.config.align);
         let anchor = input.unobserved_to;
         let result = match params.method {
-            AlignMethod::PointToSegment => {
-                let (points, targets) = (self.points, self.targets);
-                align_points_and_loose(points, input.map, targets, start, anchor, prior, params)
-            }
+            AlignMethod::PointToSegment => self.align_on(self.points, start, prior),
             AlignMethod::Endpoints => align_endpoints(
                 input.segments_in_robot,
                 input.map,
@@ -262,6 +259,28 @@ impl Attempt<'_> {
         };
         self.tried(&result);
         result
+    }
+
+    /// Point-to-segment ICP of `points` (robot frame; the scan's thinned points or some of
+    /// them) from `start` (map frame), matching the loose points too, weighing `prior`, with
+    /// the fallback of the unobserved; not recorded as a try.
+    pub(super) fn align_on(
+        &self,
+        points: &[Vec2],
+        start: Pose2,
+        prior: Option<&PosePrior>,
+    ) -> AlignResult {
+        let input = self.input;
+        let (map, anchor) = (input.map, input.unobserved_to);
+        align_points_and_loose(
+            points,
+            map,
+            self.targets,
+            start,
+            anchor,
+            prior,
+            self.config.align,
+        )
     }
 
     /// Records an ICP run ([`TriedPose`]) where the attempt keeps them.

@@ -253,36 +253,14 @@ fn a_motion_beyond_the_window_is_found_by_corner_hypotheses() {
 #[test]
 fn a_step_like_one_the_robot_made_before_finds_a_scan_beyond_the_window() {
     let (world, map, truth, guess) = beyond_the_window();
-    let t = 18f64.to_radians();
-    let anchor =
-        truth.compose(&Pose2::new(1.65 * (t / 2.0).cos(), -1.65 * (t / 2.0).sin(), -t).inverse());
-    let mut seen = StepsSeen::default();
-    for _ in 0..5 {
-        seen.push(&Pose2::new(1.0, 0.0, 0.0));
-    }
-    seen.push(&Pose2::new(1.44, -0.15, -0.22));
     let scene = (&world[..], &map, truth, guess, 0);
     let run = |seen: &StepsSeen| {
-        with_attempt(
-            AlignMethod::PointToSegment,
-            scene,
-            &TrackParams::default(),
-            |t| {
-                let input = TrackInput {
-                    anchor,
-                    steps_seen: seen,
-                    ..*t.input
-                };
-                let attempt = Attempt {
-                    input: &input,
-                    ..*t
-                };
-                let current = attempt.run_near(guess);
-                (attempt.icp_from_own_steps(&current), current)
-            },
-        )
+        with_own_steps(scene, seen, |attempt| {
+            let current = attempt.run_near(guess);
+            (attempt.icp_from_own_steps(&current), current)
+        })
     };
-    let (found, current) = run(&seen);
+    let (found, current) = run(&own_steps_seen());
     assert!(
         truth
             .between(&current.map_from_robot)
@@ -301,39 +279,59 @@ fn a_step_like_one_the_robot_made_before_finds_a_scan_beyond_the_window() {
     assert!(run(&StepsSeen::default()).0.is_none());
 }
 
-#[test]
-fn the_screen_keeps_the_best_two_distinct_steps_with_the_truth_first() {
-    let (world, map, truth, guess) = beyond_the_window();
-    let t = 18f64.to_radians();
-    let anchor =
-        truth.compose(&Pose2::new(1.65 * (t / 2.0).cos(), -1.65 * (t / 2.0).sin(), -t).inverse());
+/// Steps of 1 m straight ahead five times and one of 1.44 m turning −12.6°.
+fn own_steps_seen() -> StepsSeen {
     let mut seen = StepsSeen::default();
     for _ in 0..5 {
         seen.push(&Pose2::new(1.0, 0.0, 0.0));
     }
     seen.push(&Pose2::new(1.44, -0.15, -0.22));
+    seen
+}
+
+/// `f` of an attempt at the scan of `scene` ([`beyond_the_window`]) with the steps `seen`,
+/// from the pose 1.65 m and 18° behind the truth (a step like none seen, but within reach of
+/// the 1.5 m, −15° one).
+fn with_own_steps<T>(
+    scene: (&[Segment], &GlobalMap, Pose2, Pose2, u32),
+    seen: &StepsSeen,
+    f: impl FnOnce(&Attempt) -> T,
+) -> T {
+    let truth = scene.2;
+    let t = 18f64.to_radians();
+    let anchor =
+        truth.compose(&Pose2::new(1.65 * (t / 2.0).cos(), -1.65 * (t / 2.0).sin(), -t).inverse());
+    with_attempt(
+        AlignMethod::PointToSegment,
+        scene,
+        &TrackParams::default(),
+        |t| {
+            let input = TrackInput {
+                anchor,
+                steps_seen: seen,
+                ..*t.input
+            };
+            f(&Attempt {
+                input: &input,
+                ..*t
+            })
+        },
+    )
+}
+
+#[test]
+fn the_screen_keeps_the_best_two_distinct_steps_with_the_truth_first() {
+    let (world, map, truth, guess) = beyond_the_window();
     let scene = (&world[..], &map, truth, guess, 0);
-    let tracking = TrackParams::default();
-    let (starts, screened) = with_attempt(AlignMethod::PointToSegment, scene, &tracking, |t| {
-        let input = TrackInput {
-            anchor,
-            steps_seen: &seen,
-            ..*t.input
-        };
-        let attempt = Attempt {
-            input: &input,
-            ..*t
-        };
-        let starts: Vec<Pose2> = seen
-            .hypotheses()
-            .iter()
-            .map(|s| anchor.compose(s))
-            .collect();
+    let seen = own_steps_seen();
+    let (starts, screened) = with_own_steps(scene, &seen, |attempt| {
+        let starts = attempt.own_step_starts();
         let screened = attempt.screened(&starts);
         (starts, screened)
     });
     // Six hypotheses (no motion, 1 m and 1.5 m, each straight and turned −15°), two kept:
     // the first near the truth (ICP on a third of the points found it), the second apart.
+    let tracking = TrackParams::default();
     assert_eq!(starts.len(), 6, "{starts:?}");
     assert_eq!(screened.len(), OWN_STEP_REFINED, "{screened:?}");
     let off = truth.between(&screened[0]);
