@@ -76,8 +76,8 @@ impl Attempt<'_> {
     /// own ([`StepsSeen::hypotheses`](crate::tracking::StepsSeen::hypotheses)), screened
     /// ([`Attempt::screened`]): ICP on every point from the best two the screen found; the
     /// better when it wins by ratio over `current` within reach, and the other, if distinct,
-    /// has not `CORNER_RIVAL_BELOW` of its inliers, as for a corner pose. Not with the odometry prior,
-    /// whose guess already holds the step. Orebro (sparse), scan 61: after steps of about 1 m
+    /// has not `CORNER_RIVAL_BELOW` of its inliers, as for a corner pose. Not with the odometry
+    /// prior, whose guess already holds the step. Orebro (sparse), scan 61: after steps of about 1 m
     /// the robot drove 3.05 m turning 13°, 2 m beyond the window; no corner was in view, ICP
     /// from the starts fitted 32 % of the points and the scan was lost, and the seven scans of
     /// the spin that followed with it. A step of 3 m and 15° from the robot's own reaches it,
@@ -128,32 +128,30 @@ impl Attempt<'_> {
             .copied()
             .collect();
         let least = self.config.align.min_correspondences;
-        let mut screened: Vec<(Pose2, AlignResult)> = starts
+        let screened: Vec<AlignResult> = starts
             .iter()
             .map(|&start| {
                 let r = self.align_on(&few, start, None);
                 // Too few correspondences: ICP put the pose on the fallback, not near a fit.
                 match r.correspondences >= least {
-                    true => (r.map_from_robot, r),
-                    false => (start, r),
+                    true => r,
+                    false => AlignResult {
+                        map_from_robot: start,
+                        ..r
+                    },
                 }
             })
             .collect();
-        // Best first (`better`, in a total order), the first among equals as `best_of` takes it.
-        screened.sort_by(|(_, a), (_, b)| {
-            b.inliers
-                .cmp(&a.inliers)
-                .then(a.residual_rms_m.total_cmp(&b.residual_rms_m))
-        });
+        // The best, then the best apart from every one kept.
         let tracking = self.config.tracking;
         let mut chosen: Vec<Pose2> = Vec::with_capacity(OWN_STEP_REFINED);
-        for (pose, _) in &screened {
-            if chosen.len() == OWN_STEP_REFINED {
+        while chosen.len() < OWN_STEP_REFINED {
+            let apart =
+                |r: &AlignResult| chosen.iter().all(|c| tracking.apart(c, &r.map_from_robot));
+            let Some(next) = best_of(screened.iter().copied().filter(apart)) else {
                 break;
-            }
-            if chosen.iter().all(|c| tracking.apart(c, pose)) {
-                chosen.push(*pose);
-            }
+            };
+            chosen.push(next.map_from_robot);
         }
         chosen
     }
