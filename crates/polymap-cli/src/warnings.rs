@@ -42,8 +42,9 @@ pub fn tracking_warnings(
     odometry_used: bool,
 ) -> Vec<String> {
     let mut out = Vec::new();
-    let advice = match !odometry_used && t.odometry_agrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M)
-    {
+    let odometry_witnesses =
+        !odometry_used && t.odometry_agrees_with_travel(ODOMETRY_CHECK_MIN_TRAVEL_M);
+    let advice = match odometry_witnesses {
         true => {
             "; the log's odometry agrees with the scans' travel: mapping with --odometry \
                  carries such stretches"
@@ -109,6 +110,33 @@ pub fn tracking_warnings(
              the map, and since the odometry's travel agrees with the scans', try --odometry \
              (summary.json: tracking.off_odometry)",
             t.off_odometry,
+            listed.join(", ")
+        ));
+    }
+    if odometry_witnesses && !t.short_of_odometry.is_empty() {
+        let listed: Vec<String> = t
+            .short_of_odometry
+            .iter()
+            .take(5)
+            .map(|s| {
+                format!(
+                    "{}-{}: {:.1} m tracked, {:.1} m by the odometry",
+                    s.first, s.last, s.tracked_m, s.odometry_m
+                )
+            })
+            .collect();
+        let more = if t.short_of_odometry.len() > listed.len() {
+            ", ..."
+        } else {
+            ""
+        };
+        out.push(format!(
+            "tracking fell short of the log's odometry over {} stretch(es) (scans {}{more}): \
+             the tracked steps there are under half the odometry's, while over the run the two \
+             agree; the robot was likely held back (features along a corridor matched to the \
+             wrong ones) and the map is shortened there; check the map there; mapping with \
+             --odometry carries such stretches (summary.json: tracking.short_of_odometry)",
+            t.short_of_odometry.len(),
             listed.join(", ")
         ));
     }
@@ -291,6 +319,38 @@ mod tests {
         assert_eq!(named(&weakly_observed_run(95.0), false), 2);
         assert_eq!(named(&weakly_observed_run(95.0), true), 0);
         assert_eq!(named(&weakly_observed_run(0.0), false), 0);
+    }
+
+    /// A stretch tracked short of the odometry is told, named by its scans, where the log's
+    /// odometry witnesses: not with `--odometry` (the odometry was the prior), nor where the
+    /// odometry disagrees with the scans' travel over the run (stuck, scaled, not the robot's).
+    #[test]
+    fn a_stretch_short_of_the_odometry_is_named_where_the_odometry_witnesses() {
+        let short = |odometry_m: f64| {
+            let mut t = weakly_observed_run(odometry_m);
+            t.short_of_odometry = vec![polymap::tracking::ShortStretch {
+                first: 4797,
+                last: 4815,
+                odometry_m: 2.0,
+                tracked_m: 0.8,
+            }];
+            t
+        };
+        let told = |t: &TrackingSummary, used: bool| {
+            let lines = tracking_warnings(t, 1000, 0.3, used);
+            let found: Vec<&String> = lines
+                .iter()
+                .filter(|l| l.contains("short_of_odometry"))
+                .collect();
+            assert!(found.len() <= 1, "{lines:?}");
+            found
+                .first()
+                .map(|l| l.contains("scans 4797-4815: 0.8 m tracked, 2.0 m by the odometry"))
+        };
+        assert_eq!(told(&short(95.0), false), Some(true));
+        assert_eq!(told(&short(95.0), true), None);
+        assert_eq!(told(&short(0.0), false), None);
+        assert_eq!(told(&weakly_observed_run(95.0), false), None);
     }
 
     #[test]

@@ -17,6 +17,7 @@ mod corner_seeds;
 mod estimator;
 mod params;
 mod recent;
+mod short_of_odometry;
 mod speed;
 mod strategy;
 mod summary;
@@ -38,6 +39,10 @@ pub use params::{
 pub use recent::{
     LOOSE_OFF_MAP_M, LoosePoints, OWN_STEP_LENGTH_M, OWN_STEP_TURN_DEG, OWN_STEP_VALUES,
     RecentMotion, STEPS_SEEN, StepsSeen,
+};
+pub use short_of_odometry::{
+    MAX_SHORT_STRETCHES, SHORT_BELOW, SHORT_MIN_STEP_M, SHORT_WINDOW_M, SHORT_WINDOW_STEPS,
+    ShortStretch,
 };
 pub use strategy::{
     PINNED_BELOW_INFORMATION, PRIOR_OVER_WEAK_M, RECOVER_TRANSLATION_M,

@@ -4,6 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::short_of_odometry::{MAX_SHORT_STRETCHES, ShortStretch, ShortWindow};
 use super::verdict::{Reason, Verdict};
 
 /// Verdict counts over a run, and the runs of consecutive lost scans.
@@ -59,6 +60,16 @@ pub struct TrackingSummary {
     /// The first [`MAX_GAP_SCANS`] of them (scan indices, 0-based).
     #[serde(default)]
     pub off_odometry_scans: Vec<u32>,
+    /// Without the odometry prior: the stretches over which the tracked steps fell under half
+    /// the log's odometry's (median over at least 2 m; [`ShortWindow`]), the first
+    /// [`MAX_SHORT_STRETCHES`]. A stall on steps each tracked `ok` and each under the
+    /// odometry witness's distance shows only so. Told where the log's odometry agrees with
+    /// the scans' travel ([`TrackingSummary::odometry_agrees_with_travel`]).
+    #[serde(default)]
+    pub short_of_odometry: Vec<ShortStretch>,
+    /// The last steps, as the odometry and the tracking read them.
+    #[serde(skip)]
+    short_window: ShortWindow,
     /// Runs of consecutive `weak` scans over which the robot went at least
     /// [`WEAK_STRETCH_M`], tracked, by the log's odometry or by the speed last observed (the
     /// largest: a stretch tracked short, the failure it warns of, is short in its tracked
@@ -308,6 +319,29 @@ impl TrackingSummary {
     /// over at least [`WEAK_TRAVEL_MIN_M`] (see [`TrackingSummary::weak_travel_m`]).
     pub fn weak_travel_warns(&self) -> bool {
         self.travel_m >= WEAK_TRAVEL_MIN_M && self.weak_travel_m > WEAK_TRAVEL_SHARE * self.travel_m
+    }
+
+    /// Takes the step to scan `t` into the stretches tracked short of the odometry
+    /// ([`TrackingSummary::short_of_odometry`]): `odometry_m` as the log's odometry read it,
+    /// `tracked_m` as tracked (metres); `None` where the step does not follow the scan before
+    /// (from or to a lost scan), which starts the window over.
+    pub(super) fn count_witnessed_step(&mut self, t: u32, steps: Option<(f64, f64)>) {
+        let Some((odometry_m, tracked_m)) = steps else {
+            self.short_window.restart();
+            return;
+        };
+        let Some(stretch) = self.short_window.push(t, odometry_m, tracked_m) else {
+            return;
+        };
+        let listed = &mut self.short_of_odometry;
+        match listed.last_mut() {
+            Some(last) if last.first == stretch.first => *last = stretch,
+            _ => {
+                if listed.len() < MAX_SHORT_STRETCHES {
+                    listed.push(stretch);
+                }
+            }
+        }
     }
 
     /// Counts scan `t` as tracked off the log's odometry.

@@ -339,6 +339,13 @@ impl Tracker {
             {
                 self.summary.count_travel(odometry_m, tracked_m);
             }
+            // Without the odometry prior, the log's odometry against the tracked steps over
+            // metres: a stall on `ok` steps.
+            if self.starts.motion_prior != MotionPrior::Odometry {
+                let follows = !lost && self.lost_streak == 0;
+                let steps = odometry_m.zip(tracked_m).filter(|_| follows);
+                self.summary.count_witnessed_step(i, steps);
+            }
             let weak = tracking.verdict == Verdict::Weak;
             // The step the speed last observed predicts (the fallback along an unobserved
             // direction; over a gap in the log, for the gap's time, at most `GAP_SCALE_MAX`
