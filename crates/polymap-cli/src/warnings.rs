@@ -120,24 +120,27 @@ pub fn tracking_warnings(
             .take(5)
             .map(|s| {
                 format!(
-                    "{}-{}: {:.1} m tracked, {:.1} m by the odometry",
-                    s.first, s.last, s.tracked_m, s.odometry_m
+                    "{}-{} ({:.1} m by the odometry, the median tracked step {:.0} % of its)",
+                    s.first,
+                    s.last,
+                    s.odometry_m,
+                    100.0 * s.median_ratio
                 )
             })
             .collect();
         let more = if t.short_of_odometry.len() > listed.len() {
-            ", ..."
+            "; ..."
         } else {
             ""
         };
         out.push(format!(
-            "tracking fell short of the log's odometry over {} stretch(es) (scans {}{more}): \
-             the tracked steps there are under half the odometry's, while over the run the two \
+            "tracking fell short of the log's odometry over {} stretch(es), scans {}{more}: \
+             the median tracked step was under half the odometry's, while over the run the two \
              agree; the robot was likely held back (features along a corridor matched to the \
-             wrong ones) and the map is shortened there; check the map there; mapping with \
-             --odometry carries such stretches (summary.json: tracking.short_of_odometry)",
+             wrong ones) and the map may be shortened; check the map at those scans; mapping \
+             with --odometry carries such stretches (summary.json: tracking.short_of_odometry)",
             t.short_of_odometry.len(),
-            listed.join(", ")
+            listed.join("; ")
         ));
     }
     if !t.weak_stretches.is_empty() {
@@ -331,8 +334,8 @@ mod tests {
             t.short_of_odometry = vec![polymap::tracking::ShortStretch {
                 first: 4797,
                 last: 4815,
-                odometry_m: 2.0,
-                tracked_m: 0.8,
+                odometry_m: 2.05,
+                median_ratio: 0.28,
             }];
             t
         };
@@ -343,9 +346,11 @@ mod tests {
                 .filter(|l| l.contains("short_of_odometry"))
                 .collect();
             assert!(found.len() <= 1, "{lines:?}");
-            found
-                .first()
-                .map(|l| l.contains("scans 4797-4815: 0.8 m tracked, 2.0 m by the odometry"))
+            found.first().map(|l| {
+                l.contains(
+                    "scans 4797-4815 (2.0 m by the odometry, the median tracked step 28 % of its):",
+                )
+            })
         };
         assert_eq!(told(&short(95.0), false), Some(true));
         assert_eq!(told(&short(95.0), true), None);

@@ -61,9 +61,11 @@ pub struct TrackingSummary {
     #[serde(default)]
     pub off_odometry_scans: Vec<u32>,
     /// Without the odometry prior: the stretches over which the tracked steps fell under half
-    /// the log's odometry's (median over at least 2 m; [`ShortWindow`]), the first
-    /// [`MAX_SHORT_STRETCHES`]. A stall on steps each tracked `ok` and each under the
-    /// odometry witness's distance shows only so. Told where the log's odometry agrees with
+    /// the log's odometry's (their median over windows of at least
+    /// [`SHORT_WINDOW_M`](super::SHORT_WINDOW_M) and
+    /// [`SHORT_WINDOW_STEPS`](super::SHORT_WINDOW_STEPS); a lost scan starts the window over),
+    /// the first [`MAX_SHORT_STRETCHES`]. A stall on steps each tracked `ok` and each under the
+    /// odometry witness's distance shows only so. Warned where the log's odometry agrees with
     /// the scans' travel ([`TrackingSummary::odometry_agrees_with_travel`]).
     #[serde(default)]
     pub short_of_odometry: Vec<ShortStretch>,
