@@ -41,35 +41,38 @@ pub(super) fn siblings(values: &[f32], len: usize, level: u32) -> Vec<f32> {
 
 /// The sums of `N` children over the points at flat indices `flat`, the values of a point
 /// given by `values`: point `i` into lane `i % LANES` of each child (the order of
-/// [`CorrelativeMatcher::block`]).
+/// [`CorrelativeMatcher::block`]), as `N` sums per lane. A point's `N` values stay together
+/// and are added to its lane's `N` sums at once (one vector addition for `N = 4`, with
+/// [`siblings`] two loads straight into it): no shuffling of values across children, and
+/// the eight lanes' sums fit in registers. Each child's lane still adds its points in their
+/// order, so every sum is the same.
 #[inline(always)]
 fn sum_children<const N: usize>(
     flat: &[i32],
     values: impl Fn(i32) -> [f32; N],
-) -> [[f32; LANES]; N] {
-    let mut lanes = [[0f32; LANES]; N];
+) -> [[f32; N]; LANES] {
+    let mut lanes = [[0f32; N]; LANES];
     let mut chunks = flat.chunks_exact(LANES);
     for chunk in &mut chunks {
-        // The chunk's values gathered per child, then added lane by lane: the accumulators
-        // stay packed in registers.
-        let mut gathered = [[0f32; LANES]; N];
-        for (k, &at) in chunk.iter().enumerate() {
-            for (g, v) in gathered.iter_mut().zip(values(at)) {
-                g[k] = v;
-            }
-        }
-        for (lanes, g) in lanes.iter_mut().zip(gathered) {
-            for (lane, v) in lanes.iter_mut().zip(g) {
-                *lane += v;
+        for (lane, &at) in lanes.iter_mut().zip(chunk) {
+            for (sum, v) in lane.iter_mut().zip(values(at)) {
+                *sum += v;
             }
         }
     }
-    for (k, &at) in chunks.remainder().iter().enumerate() {
-        for (lanes, v) in lanes.iter_mut().zip(values(at)) {
-            lanes[k] += v;
+    for (lane, &at) in lanes.iter_mut().zip(chunks.remainder()) {
+        for (sum, v) in lane.iter_mut().zip(values(at)) {
+            *sum += v;
         }
     }
     lanes
+}
+
+/// Child `c`'s bound from the lanes of [`sum_children`]: its lanes added in order, as in
+/// [`CorrelativeMatcher::block`].
+#[inline(always)]
+fn child_bound<const N: usize>(lanes: &[[f32; N]; LANES], c: usize) -> f32 {
+    lanes.iter().fold(0f32, |sum, lane| sum + lane[c])
 }
 
 impl CorrelativeMatcher {
@@ -172,18 +175,18 @@ impl CorrelativeMatcher {
                 })
             }
         };
-        let block = |(dx, dy), lanes: &[f32; LANES]| Block {
+        let block = |(dx, dy), c| Block {
             rotation: r,
             ix: ix + dx,
             iy: iy + dy,
             level,
-            bound: lanes.iter().fold(0f32, |sum, lane| sum + lane),
+            bound: child_bound(&lanes, c),
         };
         Some([
-            block((0, 0), &lanes[0]),
-            block((size, 0), &lanes[1]),
-            block((0, size), &lanes[2]),
-            block((size, size), &lanes[3]),
+            block((0, 0), 0),
+            block((size, 0), 1),
+            block((0, size), 2),
+            block((size, size), 3),
         ])
     }
 }
@@ -240,14 +243,14 @@ impl CorrelativeMatcher {
             true => (size, 0),
             false => (0, size),
         };
-        let block = |(dx, dy), lanes: &[f32; LANES]| Block {
+        let block = |(dx, dy), c| Block {
             rotation: r,
             ix: ix + dx,
             iy: iy + dy,
             level,
-            bound: lanes.iter().fold(0f32, |sum, lane| sum + lane),
+            bound: child_bound(&lanes, c),
         };
-        Some([block((0, 0), &lanes[0]), block((dx, dy), &lanes[1])])
+        Some([block((0, 0), 0), block((dx, dy), 1)])
     }
 }
 
