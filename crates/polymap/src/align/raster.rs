@@ -6,13 +6,8 @@
 //! points that form no segment (pillars, corners, door frames): a map of segments alone would
 //! not see them, and in a bare corridor they are what fixes the position along it.
 
+use super::buffers::Buffer;
 use crate::geometry::{Segment, Vec2, floor_i64};
-
-impl Drop for ScoreRaster {
-    fn drop(&mut self) {
-        super::buffers::recycle(std::mem::take(&mut self.values));
-    }
-}
 
 /// Most cells of one raster; a larger extent gets coarser cells (bounded memory: 4 MiB).
 pub const MAX_RASTER_CELLS: usize = 1 << 20;
@@ -25,7 +20,8 @@ pub struct ScoreRaster {
     sigma_m: f64,
     width: usize,
     height: usize,
-    values: Vec<f32>,
+    /// Given back for reuse when dropped ([`super::buffers`]).
+    values: Buffer,
     /// The map-frame x of every column's centre, `origin.x + (x + 0.5) × cell`, computed once
     /// (for [`ScoreRaster::add_segment`]).
     centres_x: Vec<f64>,
@@ -44,7 +40,7 @@ impl ScoreRaster {
                 sigma_m,
                 width: 0,
                 height: 0,
-                values: Vec::new(),
+                values: Buffer::default(),
                 centres_x: Vec::new(),
             };
         }

@@ -16,6 +16,7 @@
 //! only the best found so far), and the queue left behind is where the search for a rival, the
 //! best pose apart from the best, goes on. ICP refines the answer below the cell size.
 
+use super::buffers::Buffer;
 use super::raster::ScoreRaster;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use search::{Block, Frontier, Prepared, Rotations, Search, ceil_log2, cells_into};
@@ -76,20 +77,12 @@ pub struct CorrelativeMatcher {
     /// (values past them are never read): a cell's index masked by the length less one is
     /// the same index, and the compiler drops the bounds check of a masked index
     /// (`masked`).
-    levels: Vec<Vec<f32>>,
+    levels: Vec<Buffer>,
     pad: i64,
     padded_width: i64,
     padded_height: i64,
     /// [`MAX_QUEUED`], smaller in tests.
     max_queued: usize,
-}
-
-impl Drop for CorrelativeMatcher {
-    fn drop(&mut self) {
-        for level in self.levels.drain(..) {
-            super::buffers::recycle(level);
-        }
-    }
 }
 
 /// The best pose of a window search ([`CorrelativeMatcher::window_best`]), with what a search

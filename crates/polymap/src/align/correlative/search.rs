@@ -3,7 +3,7 @@
 
 use super::sums::{SIBLINGS_AFTER, siblings};
 use super::{Candidate, CorrelativeMatcher, Exclusion, MAX_LEVEL, SearchWindow};
-use crate::align::buffers;
+use crate::align::buffers::Buffer;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use std::cell::{Cell, OnceCell};
 use std::collections::BinaryHeap;
@@ -250,17 +250,7 @@ pub(super) struct Search<'a> {
     /// Per level, how many blocks' children were summed there, and its values beside their
     /// siblings' once that reached [`SIBLINGS_AFTER`].
     summed: [Cell<u32>; MAX_LEVEL as usize + 1],
-    siblings: [OnceCell<Vec<f32>>; MAX_LEVEL as usize + 1],
-}
-
-impl Drop for Search<'_> {
-    fn drop(&mut self) {
-        for cell in &mut self.siblings {
-            if let Some(v) = cell.take() {
-                buffers::recycle(v);
-            }
-        }
-    }
+    siblings: [OnceCell<Buffer>; MAX_LEVEL as usize + 1],
 }
 
 impl<'a> Search<'a> {

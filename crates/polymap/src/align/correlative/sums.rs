@@ -15,7 +15,7 @@
 
 use super::search::{Block, Rotations};
 use super::{CorrelativeMatcher, LANES, masked};
-use crate::align::buffers;
+use crate::align::buffers::{self, Buffer};
 
 /// A search builds a level's [`siblings`] once it has summed the children of this many blocks
 /// at that level.
@@ -25,7 +25,7 @@ pub(super) const SIBLINGS_AFTER: u32 = 64;
 /// power of two) with the value `2^level` cells to their right: entry `i` of the result (as
 /// pairs: `2i`, `2i + 1`) is `(values[i], values[i + 2^level])`, the second 0 past `len`. The
 /// result holds as many pairs as `values` holds values; pairs past `len` are never read.
-pub(super) fn siblings(values: &[f32], len: usize, level: u32) -> Vec<f32> {
+pub(super) fn siblings(values: &[f32], len: usize, level: u32) -> Buffer {
     let s = (1usize << level).min(len);
     let mut out = buffers::reused(2 * values.len());
     let (pairs, _) = out.as_chunks_mut::<2>();
@@ -274,7 +274,6 @@ mod tests {
                     "{level} {i}"
                 );
             }
-            buffers::recycle(out);
         }
     }
 }

@@ -429,10 +429,10 @@ fn levels_are_a_power_of_two_long_and_reused_buffers_give_the_same_cells() {
         let kept: Vec<Vec<f32>> = matcher.levels.iter().map(|l| l[..cells].to_vec()).collect();
         drop(matcher);
         // Every kept buffer taken, filled with another value and given back.
-        use super::super::buffers::{MAX_KEPT, recycle, reused};
-        let mut taken: Vec<Vec<f32>> = (0..MAX_KEPT).map(|_| reused(1 << 16)).collect();
+        use super::super::buffers::{Buffer, MAX_KEPT, reused};
+        let mut taken: Vec<Buffer> = (0..MAX_KEPT).map(|_| reused(1 << 16)).collect();
         taken.iter_mut().for_each(|b| b.fill(9.0));
-        taken.into_iter().for_each(recycle);
+        drop(taken);
         let again =
             CorrelativeMatcher::for_window(ScoreRaster::of(&segs, &pillar, cell, 0.2), half_xy);
         for (kept, level) in kept.iter().zip(&again.levels) {
