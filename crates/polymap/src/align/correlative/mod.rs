@@ -20,6 +20,7 @@ use super::buffers::Buffer;
 use super::raster::ScoreRaster;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 use search::{Block, Frontier, Prepared, Rotations, Search, ceil_log2, cells_into};
+use std::cell::{Cell, OnceCell};
 
 /// Highest block level: blocks of up to `2^6 = 64` cells a side.
 const MAX_LEVEL: u32 = 6;
@@ -83,6 +84,13 @@ pub struct CorrelativeMatcher {
     padded_height: i64,
     /// [`MAX_QUEUED`], smaller in tests.
     max_queued: usize,
+    /// Per level, how many blocks' children the searches of this matcher summed there, and
+    /// the level's values beside their siblings' once that reached
+    /// [`SIBLINGS_AFTER`](sums::SIBLINGS_AFTER): built once for all the searches of the
+    /// matcher (the search for the best, its rival's, each peak's), which then all sum from
+    /// them.
+    summed: [Cell<u32>; MAX_LEVEL as usize + 1],
+    siblings: [OnceCell<Buffer>; MAX_LEVEL as usize + 1],
 }
 
 /// The best pose of a window search ([`CorrelativeMatcher::window_best`]), with what a search
@@ -172,6 +180,8 @@ impl CorrelativeMatcher {
             padded_width: pw,
             padded_height: ph,
             max_queued: MAX_QUEUED,
+            summed: Default::default(),
+            siblings: Default::default(),
         }
     }
 
@@ -329,7 +339,6 @@ impl CorrelativeMatcher {
             let Some(leaf) = ctx.next(&mut frontier, floor) else {
                 break;
             };
-            drop(ctx);
             let c = prepared.candidate(self, window, leaf);
             exclusions.push(Exclusion {
                 center: c.map_from_robot,

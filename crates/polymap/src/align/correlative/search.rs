@@ -2,10 +2,9 @@
 //! blocks of translations with their bounds, the best-first queue, and the search over it.
 
 use super::sums::{SIBLINGS_AFTER, siblings};
-use super::{Candidate, CorrelativeMatcher, Exclusion, MAX_LEVEL, SearchWindow};
-use crate::align::buffers::Buffer;
+use super::{Candidate, CorrelativeMatcher, Exclusion, SearchWindow};
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
-use std::cell::{Cell, OnceCell};
+use std::cell::OnceCell;
 use std::collections::BinaryHeap;
 
 /// The rotations of a window: for each, the points' cells at zero offset, all rotations in
@@ -247,10 +246,6 @@ pub(super) struct Search<'a> {
     pub(super) window: &'a SearchWindow,
     pub(super) reach: i64,
     pub(super) exclusions: &'a [Exclusion],
-    /// Per level, how many blocks' children were summed there, and its values beside their
-    /// siblings' once that reached [`SIBLINGS_AFTER`].
-    summed: [Cell<u32>; MAX_LEVEL as usize + 1],
-    siblings: [OnceCell<Buffer>; MAX_LEVEL as usize + 1],
 }
 
 impl<'a> Search<'a> {
@@ -269,22 +264,21 @@ impl<'a> Search<'a> {
             window,
             reach,
             exclusions,
-            summed: Default::default(),
-            siblings: Default::default(),
         }
     }
 
-    /// Level `level`'s values beside their siblings' ([`siblings`]) once this search has
-    /// summed the children of [`SIBLINGS_AFTER`] blocks there (built then); `None` before.
-    fn pairs(&self, level: u32) -> Option<&[[f32; 2]]> {
+    /// Level `level`'s values beside their siblings' ([`siblings`]) once the searches of this
+    /// matcher have summed the children of [`SIBLINGS_AFTER`] blocks there (built then);
+    /// `None` before.
+    fn pairs(&self, level: u32) -> Option<&'a [[f32; 2]]> {
         let l = level as usize;
-        let built = self.siblings.get(l)?.get().or_else(|| {
-            let n = self.summed[l].get() + 1;
-            self.summed[l].set(n);
+        let m = self.matcher;
+        let built = m.siblings.get(l)?.get().or_else(|| {
+            let n = m.summed[l].get() + 1;
+            m.summed[l].set(n);
             (n >= SIBLINGS_AFTER).then(|| {
-                let m = self.matcher;
                 let len = (m.padded_width * m.padded_height) as usize;
-                self.siblings[l].get_or_init(|| siblings(&m.levels[l], len, level))
+                m.siblings[l].get_or_init(|| siblings(&m.levels[l], len, level))
             })
         })?;
         Some(built.as_chunks::<2>().0)
@@ -366,6 +360,7 @@ impl Search<'_> {
             // At the window's far edge two children lie inside: summed in one pass (from the
             // level's siblings if built, without counting towards building them).
             let pairs = self
+                .matcher
                 .siblings
                 .get(level as usize)
                 .and_then(OnceCell::get)

@@ -8,17 +8,18 @@
 //! of the four children were a third of a sparse run's instructions). With each value stored
 //! beside the one `s` cells to its right ([`siblings`]), a point's four values are two loads
 //! of two values: the children's sums take less than half the instructions. Building that
-//! copy of a level costs about as much as 50 openings at that level save, so a search builds
-//! it only once it has opened [`SIBLINGS_AFTER`] blocks there (a search on the sparse logs
-//! opens from a few hundred to a few thousand). The values are those of the level, so every
-//! sum is the same either way.
+//! copy of a level costs about as much as 50 openings at that level save, so a matcher builds
+//! it only once its searches (the best's, the rival's, the peaks') have opened
+//! [`SIBLINGS_AFTER`] blocks there together (a search on the sparse logs opens from a few
+//! hundred to a few thousand), and keeps it for the searches after. The values are those of
+//! the level, so every sum is the same either way.
 
 use super::search::{Block, Rotations};
 use super::{CorrelativeMatcher, LANES, masked};
 use crate::align::buffers::{self, Buffer};
 
-/// A search builds a level's [`siblings`] once it has summed the children of this many blocks
-/// at that level.
+/// A matcher builds a level's [`siblings`] once its searches have summed the children of this
+/// many blocks at that level.
 pub(super) const SIBLINGS_AFTER: u32 = 64;
 
 /// Level values `values` (rows of the padded width; `len` of them valid, the slice's length a
