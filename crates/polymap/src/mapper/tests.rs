@@ -478,6 +478,36 @@ fn odometry_that_cannot_witness_flags_nothing() {
     assert_eq!(quiet(&|_, truth| *truth, &blind), (0, 0));
 }
 
+/// Odometry that reads scans 21-31 three times as long as the robot went (0.3 m a step where
+/// the scans track 0.1 m): the tracked steps fall short of it over 3.3 m, one stretch from its
+/// first short step to its last. A lost scan inside it starts the window over (five short
+/// steps before it and four after make no short window); with the odometry prior the odometry is no
+/// witness. The poses are those of a run the odometry does not witness.
+#[test]
+fn steps_short_of_the_odometry_over_metres_are_one_stretch() {
+    let long = |i: usize, t: &Pose2| {
+        let extra = 0.2 * (i.clamp(20, 31) - 20) as f64;
+        Pose2::new(t.x_m + extra, t.y_m, t.theta_rad)
+    };
+    let sighted = |_: usize| false;
+    let (updates, summary, _) = drive_witnessed(witnessed_at(0.3), sighted, long);
+    let ranges: Vec<(u32, u32)> = summary
+        .short_of_odometry
+        .iter()
+        .map(|s| (s.first, s.last))
+        .collect();
+    assert_eq!(ranges, [(21, 31)], "{summary:?}");
+    let (unwitnessed, _, _) = drive_witnessed(witnessed_at(0.0), sighted, long);
+    let poses = |u: &[Update]| u.iter().map(|u| u.map_from_robot).collect::<Vec<_>>();
+    assert_eq!(poses(&updates), poses(&unwitnessed));
+    let (_, broken, _) = drive_witnessed(witnessed_at(0.3), |i| i == 26, long);
+    assert_eq!(broken.short_of_odometry, [], "{broken:?}");
+    let mut prior = witnessed_at(0.3);
+    prior.mapper.motion_prior = MotionPrior::Odometry;
+    let (_, with_prior, _) = drive_witnessed(prior, sighted, long);
+    assert_eq!(with_prior.short_of_odometry, [], "{with_prior:?}");
+}
+
 /// `walls` as a finished map whose walls are right on the whole but off by up to 8 cm in ways
 /// that differ from place to place: each wall cut into pieces of at most 0.6 m, each piece
 /// moved across the wall by its own amount.
