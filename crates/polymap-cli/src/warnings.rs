@@ -120,7 +120,7 @@ pub fn tracking_warnings(
             .take(5)
             .map(|s| {
                 format!(
-                    "{}-{} ({:.1} m by the odometry, the median tracked step {:.0} % of its)",
+                    "{}-{} ({:.1} m by the odometry; median tracked step {:.0} % of the odometry's)",
                     s.first,
                     s.last,
                     s.odometry_m,
@@ -348,7 +348,7 @@ mod tests {
             assert!(found.len() <= 1, "{lines:?}");
             found.first().map(|l| {
                 l.contains(
-                    "scans 4797-4815 (2.0 m by the odometry, the median tracked step 28 % of its):",
+                    "scans 4797-4815 (2.0 m by the odometry; median tracked step 28 % of the odometry's):",
                 )
             })
         };
