@@ -475,16 +475,16 @@ pub(super) fn cells_into(
     out: &mut Vec<(i32, i32)>,
 ) {
     let clamp = CELL_CLAMP as f64;
-    let start = out.len();
-    out.resize(start + xs.len(), (0, 0));
-    for ((c, &x), &y) in out[start..].iter_mut().zip(xs).zip(ys) {
+    // Appended from an iterator of known length: no zeros written first only to be
+    // overwritten.
+    out.extend(xs.iter().zip(ys).map(|(&x, &y)| {
         let qx = cos * x - sin * y + t.x;
         let qy = sin * x + cos * y + t.y;
-        *c = (
+        (
             clamped_floor((qx - origin.x) / cell, clamp),
             clamped_floor((qy - origin.y) / cell, clamp),
-        );
-    }
+        )
+    }));
 }
 
 pub(super) fn ceil_log2(n: i64) -> u32 {
