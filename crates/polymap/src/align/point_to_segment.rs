@@ -3,7 +3,7 @@
 use super::solver::{Constraint, PosePrior, run_icp};
 use super::{AlignParams, AlignResult, SegmentLookup};
 use crate::extract::fit_line;
-use crate::geometry::{Pose2, Segment, Vec2};
+use crate::geometry::{Pose2, Segment, Vec2, floor_i64};
 use crate::segment_index::NearestCertificate;
 
 /// A scan point is matched to a loose point at most this far, metres (whatever ICP's gate,
@@ -84,7 +84,7 @@ impl Bins {
             return Bins::default();
         };
         let far = points.iter().copied().fold(origin, Vec2::max);
-        let span = |v: f64| (v / Self::CELL_M).floor() as i64 + 1;
+        let span = |v: f64| floor_i64(v / Self::CELL_M) + 1;
         let (width, height) = (span(far.x - origin.x), span(far.y - origin.y));
         if width.saturating_mul(height) > Self::MAX_CELLS {
             return Bins::default();
@@ -121,7 +121,7 @@ impl Bins {
     /// The cell of `p`, which may lie outside the bins.
     fn cell(&self, p: Vec2) -> (i64, i64) {
         let c = (p - self.origin) / Self::CELL_M;
-        (c.x.floor() as i64, c.y.floor() as i64)
+        (floor_i64(c.x), floor_i64(c.y))
     }
 
     /// Whether a point may lie within `max_m` of `q`: `false` only when none does (the
@@ -211,8 +211,8 @@ impl PointTargets {
     pub fn new(points_in_map: &[Vec2]) -> Self {
         let cell = |p: Vec2| {
             (
-                (p.x / LOOSE_DISTINCT_M).floor() as i64,
-                (p.y / LOOSE_DISTINCT_M).floor() as i64,
+                floor_i64(p.x / LOOSE_DISTINCT_M),
+                floor_i64(p.y / LOOSE_DISTINCT_M),
             )
         };
         let mut grid: rustc_hash::FxHashMap<(i64, i64), Vec<Vec2>> = Default::default();

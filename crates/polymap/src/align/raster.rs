@@ -114,8 +114,8 @@ impl ScoreRaster {
         if b.x < 0.0 || b.y < 0.0 {
             return;
         }
-        let y0 = (a.y / cell).floor().max(0.0) as usize;
-        let y1 = ((b.y / cell).ceil().max(0.0) as usize).min(self.height - 1);
+        let y0 = low_cell(a.y / cell);
+        let y1 = high_cell(b.y / cell).min(self.height - 1);
         let (p, q) = (s.start - self.origin, s.end - self.origin);
         let (start, v) = (s.start, s.vector());
         let len_2 = v.length_squared();
@@ -124,8 +124,8 @@ impl ScoreRaster {
             // Only the span of x where the segment, widened by σ, crosses this row.
             let (ylo, yhi) = (y as f64 * cell - sigma, (y + 1) as f64 * cell + sigma);
             let (xlo, xhi) = x_span(p, q, ylo, yhi);
-            let x0 = ((xlo - sigma) / cell).floor().max(0.0) as usize;
-            let x1 = (((xhi + sigma) / cell).ceil().max(0.0) as usize).min(self.width - 1);
+            let x0 = low_cell((xlo - sigma) / cell);
+            let x1 = high_cell((xhi + sigma) / cell).min(self.width - 1);
             if x0 > x1 {
                 continue;
             }
@@ -161,10 +161,10 @@ impl ScoreRaster {
         }
         let (sigma, cell) = (self.sigma_m, self.cell_m);
         let q = p - self.origin;
-        let x0 = ((q.x - sigma) / cell).floor().max(0.0) as usize;
-        let y0 = ((q.y - sigma) / cell).floor().max(0.0) as usize;
-        let x1 = (((q.x + sigma) / cell).ceil().max(0.0) as usize).min(self.width - 1);
-        let y1 = (((q.y + sigma) / cell).ceil().max(0.0) as usize).min(self.height - 1);
+        let x0 = low_cell((q.x - sigma) / cell);
+        let y0 = low_cell((q.y - sigma) / cell);
+        let x1 = high_cell((q.x + sigma) / cell).min(self.width - 1);
+        let y1 = high_cell((q.y + sigma) / cell).min(self.height - 1);
         for y in y0..=y1 {
             for x in x0..=x1 {
                 let c = Vec2::new((x as f64 + 0.5) * cell, (y as f64 + 0.5) * cell);
@@ -208,6 +208,21 @@ impl ScoreRaster {
     pub(crate) fn values(&self) -> &[f32] {
         &self.values
     }
+}
+
+/// The first cell of a span starting at `v` cells: `floor(v)`, at least 0 (0 for NaN), by
+/// [`floor_i64`] instead of a call to the library's `floor` (the default x86-64 target has no
+/// rounding instruction). Beyond `i64` it saturates lower than `floor(v) as usize` would, but
+/// past every raster's last cell either way: the span is then empty alike.
+fn low_cell(v: f64) -> usize {
+    floor_i64(v).max(0) as usize
+}
+
+/// The last cell of a span ending at `v` cells before the raster's bound: `ceil(v)`, at least 0
+/// (0 for NaN), as `-floor(-v)` ([`low_cell`]); the callers cap it at the raster's last cell,
+/// which a saturated value exceeds as `ceil(v) as usize` does.
+fn high_cell(v: f64) -> usize {
+    floor_i64(-v).saturating_neg().max(0) as usize
 }
 
 /// The range of x of the segment `p`–`q` where its y lies in `[ylo, yhi]` (the whole segment's
