@@ -74,7 +74,7 @@ pub(super) struct ShortWindow {
     open: Option<(ShortStretch, f64)>,
     /// The last scan of the last stretch: a later one starts after it.
     closed_last: Option<u32>,
-    /// The window's ratios, sorted for the median (kept to reuse its allocation).
+    /// The window's ratios, partly ordered to find the median (kept to reuse its allocation).
     ratios: Vec<f64>,
 }
 
@@ -107,52 +107,43 @@ impl ShortWindow {
             self.closed_last = Some(open.last);
             self.open = None;
         }
-        let is_short = |tracked_m: f64, odometry_m: f64| tracked_m < SHORT_BELOW * odometry_m;
-        let median = self.median().filter(|&m| m < SHORT_BELOW);
-        let Some(median) = median else {
+        let Some(median) = self.median().filter(|&m| m < SHORT_BELOW) else {
             if let Some((_, pending_m)) = &mut self.open {
                 *pending_m += odometry_m;
             }
             return None;
         };
-        let stretch = match self.open.take() {
-            Some((mut open, mut pending_m)) => {
-                pending_m += odometry_m;
-                if is_short(tracked_m, odometry_m) {
-                    open.last = t;
-                    open.odometry_m += pending_m;
-                    pending_m = 0.0;
-                }
-                open.median_ratio = open.median_ratio.min(median);
-                (open, pending_m)
+        let mut open = match self.open.take() {
+            Some(mut open) => {
+                extend(&mut open, t, odometry_m, tracked_m);
+                open
             }
+            // From the window's first short step after the last stretch.
             None => {
                 let after = |s: u32| self.closed_last.is_none_or(|last| s > last);
-                let mut steps = self
+                let steps = self
                     .steps
                     .iter()
                     .skip_while(|&&(s, o, tr)| !(after(s) && is_short(tr, o)));
-                let &(first, first_m, _) = steps.next()?;
-                let mut open = ShortStretch {
-                    first,
-                    last: first,
-                    odometry_m: first_m,
-                    median_ratio: median,
-                };
-                let mut pending_m = 0.0;
+                let &(first, _, _) = steps.clone().next()?;
+                let mut open = (
+                    ShortStretch {
+                        first,
+                        last: first,
+                        odometry_m: 0.0,
+                        median_ratio: median,
+                    },
+                    0.0,
+                );
                 for &(s, o, tr) in steps {
-                    pending_m += o;
-                    if is_short(tr, o) {
-                        open.last = s;
-                        open.odometry_m += pending_m;
-                        pending_m = 0.0;
-                    }
+                    extend(&mut open, s, o, tr);
                 }
-                (open, pending_m)
+                open
             }
         };
-        self.open = Some(stretch);
-        Some(stretch.0)
+        open.0.median_ratio = open.0.median_ratio.min(median);
+        self.open = Some(open);
+        Some(open.0)
     }
 
     /// The window's median ratio of tracked over odometry step length (the upper median),
@@ -177,6 +168,23 @@ impl ShortWindow {
             closed_last,
             ..Self::default()
         };
+    }
+}
+
+/// Whether a step tracked `tracked_m` where the odometry read `odometry_m` is short.
+fn is_short(tracked_m: f64, odometry_m: f64) -> bool {
+    tracked_m < SHORT_BELOW * odometry_m
+}
+
+/// Takes the step to scan `t` into the stretch going on (with the odometry's travel since its
+/// last short step, metres): a short step ends the stretch there, with the steps before it.
+fn extend(open: &mut (ShortStretch, f64), t: u32, odometry_m: f64, tracked_m: f64) {
+    let (stretch, pending_m) = open;
+    *pending_m += odometry_m;
+    if is_short(tracked_m, odometry_m) {
+        stretch.last = t;
+        stretch.odometry_m += *pending_m;
+        *pending_m = 0.0;
     }
 }
 
