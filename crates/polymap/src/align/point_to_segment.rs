@@ -207,6 +207,95 @@ impl Bins {
     }
 }
 
+impl Bins {
+    /// The reach of a [`TargetCertificate`]'s look, metres: the gate's largest reach
+    /// ([`LOOSE_GATE_M`]) with room for a point to move between ICP's iterations, and under
+    /// half a cell ([`Bins::CELL_M`]), so that the look still visits at most four cells.
+    const CERTIFY_M: f64 = 0.38;
+
+    /// The nearest point to `q` (finite) with a distance every other point lies beyond (see
+    /// [`TargetCertificate`]); `None` without bins or for a `q` that is not finite.
+    fn certify(&self, q: Vec2) -> Option<TargetCertificate> {
+        if self.starts.is_empty() || !q.is_finite() {
+            return None;
+        }
+        // Every point within the reach lies in these cells ([`Bins::around`]): one outside
+        // them lies beyond the reach.
+        let (x0, y0, x1, y1) = self.around(q, Self::CERTIFY_M);
+        let mut first: Option<(f64, usize)> = None;
+        let mut second_2 = f64::INFINITY;
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                let i = (y * self.width + x) as usize;
+                for k in self.starts[i] as usize..self.starts[i + 1] as usize {
+                    let d2 = self.points[k].distance_squared(q);
+                    match first {
+                        Some((b, _)) if d2 >= b => second_2 = second_2.min(d2),
+                        _ => {
+                            if let Some((b, _)) = first {
+                                second_2 = b;
+                            }
+                            first = Some((d2, k));
+                        }
+                    }
+                }
+            }
+        }
+        let clear_m = second_2.sqrt().min(Self::CERTIFY_M);
+        Some(match first {
+            Some((d2, k)) if d2.sqrt() < Self::CERTIFY_M => TargetCertificate {
+                at: q,
+                nearest: Some((d2.sqrt(), self.points[k], self.ids[k] as usize)),
+                clear_m,
+            },
+            _ => TargetCertificate {
+                at: q,
+                nearest: None,
+                clear_m: clear_m.min(first.map_or(f64::INFINITY, |(d2, _)| d2.sqrt())),
+            },
+        })
+    }
+}
+
+/// What a look at the loose points' bins around a point `at` found: the nearest point (if one
+/// lies within the look's reach) and a distance every other point lies beyond. Near `at`, it
+/// answers [`PointTargets::constrain`]'s search for the nearest point without a look: ICP
+/// moves a scan point a little from one iteration to the next, and most scan points offered
+/// to the targets lie far from every one.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct TargetCertificate {
+    at: Vec2,
+    /// The nearest point's distance from `at` (metres), the point and its index.
+    nearest: Option<(f64, Vec2, usize)>,
+    /// Every point but the nearest lies at least this far from `at`, metres.
+    clear_m: f64,
+}
+
+impl TargetCertificate {
+    /// The answer of [`Bins::nearest_within`] for `q` and a gate of `max_m`, when the
+    /// certificate decides it: `Some(None)` when no point lies within the gate, `Some(Some(_))`
+    /// with the nearest point of all, strictly nearer than any other (which may lie beyond the
+    /// gate: the caller compares its distance with the gate, as for the bins' answer). `None`
+    /// when `q` moved too far from `at` for the certificate to tell, or for a gate the bins do
+    /// not answer.
+    fn answer(&self, q: Vec2, max_m: f64) -> Option<Option<(Vec2, usize)>> {
+        let gated = max_m <= LOOSE_GATE_M && max_m.is_finite();
+        if !gated {
+            return None;
+        }
+        let moved = (q - self.at).length();
+        // A hair for the rounding of the distances compared.
+        let hair = 1e-9 * (1.0 + self.clear_m);
+        match self.nearest {
+            // Every other point stays farther from `q` than this one.
+            Some((near_m, at, id)) => {
+                (near_m + 2.0 * moved + hair < self.clear_m).then_some(Some((at, id)))
+            }
+            None => (max_m.abs() + moved + hair < self.clear_m).then_some(None),
+        }
+    }
+}
+
 /// How a target point constrains a scan point matched to it.
 #[derive(Debug, Clone, Copy, PartialEq)]
 enum Shape {
@@ -281,11 +370,27 @@ impl PointTargets {
     }
 
     /// The constraints for scan point `p_in_robot`, at `q` in the map frame, from the nearest
-    /// target within `max_m`: none, one (point to line) or two (point to point).
-    fn constrain(&self, p_in_robot: Vec2, q: Vec2, max_m: f64, out: &mut Vec<Constraint>) {
+    /// target within `max_m`: none, one (point to line) or two (point to point). `certificate`
+    /// is what a look near `q` found (for the same scan point at an earlier ICP iteration),
+    /// replaced by a new look where it cannot tell: the same answers, without a look while
+    /// the point moves little.
+    fn constrain(
+        &self,
+        p_in_robot: Vec2,
+        q: Vec2,
+        max_m: f64,
+        certificate: &mut Option<TargetCertificate>,
+        out: &mut Vec<Constraint>,
+    ) {
+        let known = certificate.and_then(|c| c.answer(q, max_m));
+        let certified = known.or_else(|| {
+            *certificate = self.bins.certify(q);
+            certificate.and_then(|c| c.answer(q, max_m))
+        });
         // The nearest from the bins where they can tell (the tree's search cost many times
         // more); no point within the gate: the nearest, wherever it is, lies beyond it.
-        let (at, id) = match self.bins.nearest_within(q, max_m) {
+        let found = certified.or_else(|| self.bins.nearest_within(q, max_m));
+        let (at, id) = match found {
             Some(Some(found)) => found,
             Some(None) => return,
             None => {
@@ -412,9 +517,15 @@ fn align_points_matched(
     // Per point, what the last search found: while a point moves little between iterations,
     // its nearest segment is known without searching again (same answers, exactly).
     let mut certificates: Vec<Option<NearestCertificate>> = vec![None; points_in_robot.len()];
+    // And likewise the nearest loose point.
+    let mut loose: Vec<Option<TargetCertificate>> = vec![None; points_in_robot.len()];
     let Held { anchor, prior } = held;
     run_icp(guess, anchor, prior, params, |pose, gate_m, out| {
-        for (&p, certificate) in points_in_robot.iter().zip(&mut certificates) {
+        let each = points_in_robot
+            .iter()
+            .zip(&mut certificates)
+            .zip(&mut loose);
+        for ((&p, certificate), loose) in each {
             let q = pose.transform_point(p);
             let known = certificate.and_then(|c| c.answer(q, gate_m));
             let nearest = match known {
@@ -450,7 +561,7 @@ fn align_points_matched(
             }
             let Some((s, dir)) = on_segment else {
                 if let Some(t) = targets {
-                    t.constrain(p, q, gate_m.min(LOOSE_GATE_M), out);
+                    t.constrain(p, q, gate_m.min(LOOSE_GATE_M), loose, out);
                 }
                 continue;
             };
@@ -520,6 +631,57 @@ mod tests {
         assert!(Bins::new(&[]).maybe_within(Vec2::ZERO, 0.1));
         let wide = Bins::new(&[Vec2::ZERO, Vec2::new(1e6, 1e6)]);
         assert!(wide.maybe_within(Vec2::new(5e5, 5e5), 0.1));
+    }
+
+    /// A certificate answers, near the point it was made at, what the bins answer: no point
+    /// within the gate, or the nearest of all points (compared with the gate by the caller);
+    /// and it answers most queries a few centimetres away.
+    #[test]
+    fn a_certificate_answers_as_the_bins_do() {
+        let points: Vec<Vec2> = (0..60)
+            .map(|i| {
+                let a = f64::from(i) * 0.37;
+                Vec2::new(3.0 * a.cos() + 0.1 * a, 2.0 * a.sin() - 0.05 * a)
+            })
+            .collect();
+        let bins = Bins::new(&points);
+        let (mut told, mut asked) = (0, 0);
+        for i in -50..=50 {
+            for j in -50..=50 {
+                let q = Vec2::new(
+                    f64::from(i) * 0.08,
+                    f64::from(j) * 0.08 + 0.003 * f64::from(i),
+                );
+                let certificate = bins.certify(q).unwrap();
+                for (dx, dy) in [(0.0, 0.0), (0.01, -0.02), (-0.05, 0.03), (0.2, 0.1)] {
+                    let moved = q + Vec2::new(dx, dy);
+                    for max_m in [0.05, 0.2, LOOSE_GATE_M] {
+                        asked += 1;
+                        let Some(answer) = certificate.answer(moved, max_m) else {
+                            continue;
+                        };
+                        told += 1;
+                        let d2 = |p: &Vec2| p.distance_squared(moved);
+                        match answer {
+                            None => assert!(points.iter().all(|p| d2(p) > max_m * max_m)),
+                            Some((at, id)) => {
+                                assert_eq!(points[id], at);
+                                assert!(points.iter().all(|p| *p == at || d2(p) > d2(&at)));
+                            }
+                        }
+                        match bins.nearest_within(moved, max_m) {
+                            Some(Some((at, _))) => assert_eq!(answer.map(|a| a.0), Some(at)),
+                            Some(None) => assert!(answer.is_none_or(|(at, _)| {
+                                at.distance_squared(moved) > max_m * max_m
+                            })),
+                            None => {}
+                        }
+                    }
+                }
+            }
+        }
+        assert!(told * 10 > asked * 7, "{told} of {asked}");
+        assert!(Bins::new(&[]).certify(Vec2::ZERO).is_none());
     }
 
     /// A corridor whose only mark along it is a box's face against its north wall (x = 0,
