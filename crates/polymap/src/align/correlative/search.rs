@@ -445,7 +445,9 @@ impl Search<'_> {
 /// [`crate::geometry::floor_i64`] then a clamp, 0 for NaN, without branches and without a
 /// float-to-integer conversion (whose saturating semantics kept the loop of
 /// [`cells_into`] from being vectorized): a value below 2⁵¹ plus 1.5 × 2⁵² rounds to the
-/// nearest integer, whose two's complement is then the low 32 bits of that sum.
+/// nearest integer, whose two's complement is then the low 32 bits of that sum. Where the
+/// nearest integer lies above the value, the floor is one less: in that sum's range
+/// (2⁵² to 2⁵³) consecutive integers are consecutive bit patterns, so one less in the bits.
 #[inline]
 pub(super) fn clamped_floor(v: f64, clamp: f64) -> i32 {
     const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
@@ -453,12 +455,9 @@ pub(super) fn clamped_floor(v: f64, clamp: f64) -> i32 {
         true => 0.0,
         false => v.max(-clamp).min(clamp),
     };
-    let nearest = (v + SHIFT) - SHIFT;
-    let floor = match nearest > v {
-        true => nearest - 1.0,
-        false => nearest,
-    };
-    (floor + SHIFT).to_bits() as u32 as i32
+    let shifted = v + SHIFT;
+    let above = u64::from(shifted - SHIFT > v);
+    (shifted.to_bits() - above) as u32 as i32
 }
 
 /// Appends to `out` the cells of the points (`xs`, `ys`, robot frame) turned by `(sin, cos)`

@@ -25,7 +25,13 @@ fn the_clamped_floor_is_the_floor_then_the_clamp() {
         f64::INFINITY,
         f64::NEG_INFINITY,
     ];
-    for v in cases {
+    // Whole numbers, halves (ties of the rounding) and values a hair either side of them.
+    let near = (-4000..=4000).flat_map(|i| {
+        [f64::from(i) * 0.25, f64::from(i) * 262_144.5]
+            .map(|v| [v, v.next_up(), v.next_down(), v + 1e-9, v - 1e-9])
+    });
+    let near = near.flatten();
+    for v in cases.into_iter().chain(near) {
         let want = crate::geometry::floor_i64(v).clamp(-CELL_CLAMP, CELL_CLAMP);
         assert_eq!(clamped_floor(v, clamp) as i64, want, "{v}");
     }
