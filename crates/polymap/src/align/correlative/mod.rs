@@ -19,7 +19,7 @@
 use super::buffers::Buffer;
 use super::raster::ScoreRaster;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
-use search::{Block, Frontier, Prepared, Rotations, Search, ceil_log2, cells_into};
+use search::{Block, Frontier, Prepared, Rotations, Search, ceil_log2, cells_into, must_clamp};
 use std::cell::{Cell, OnceCell};
 
 /// Highest block level: blocks of up to `2^6 = 64` cells a side.
@@ -408,6 +408,7 @@ impl CorrelativeMatcher {
         let origin = self.raster.origin();
         let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
         let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
+        let clamped = must_clamp(&xs, &ys, &c, origin, cell);
         for k in -count..=count {
             let theta_rad = normalize_angle_rad(c.theta_rad + k as f64 * step);
             let pose = Pose2::new(c.x_m, c.y_m, theta_rad);
@@ -424,6 +425,7 @@ impl CorrelativeMatcher {
                 pose.translation(),
                 origin,
                 cell,
+                clamped,
                 &mut out.cells,
             );
             let cells = &out.cells[start..];

@@ -444,26 +444,55 @@ impl Search<'_> {
 /// `floor(v)` clamped to `±clamp` (at most 2³⁰), as an `i32`: the same cell as
 /// [`crate::geometry::floor_i64`] then a clamp, 0 for NaN, without branches and without a
 /// float-to-integer conversion (whose saturating semantics kept the loop of
-/// [`cells_into`] from being vectorized): a value below 2⁵¹ plus 1.5 × 2⁵² rounds to the
-/// nearest integer, whose two's complement is then the low 32 bits of that sum. Where the
-/// nearest integer lies above the value, the floor is one less: in that sum's range
-/// (2⁵² to 2⁵³) consecutive integers are consecutive bit patterns, so one less in the bits.
+/// [`cells_into`] from being vectorized); see [`floor_in_bits`].
 #[inline]
 pub(super) fn clamped_floor(v: f64, clamp: f64) -> i32 {
-    const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
     let v = match v.is_nan() {
         true => 0.0,
         false => v.max(-clamp).min(clamp),
     };
+    floor_in_bits(v)
+}
+
+/// `floor(v)` as an `i32` for `v` within `±2³⁰`: a value below 2⁵¹ plus 1.5 × 2⁵² rounds to
+/// the nearest integer, whose two's complement is then the low 32 bits of that sum. Where the
+/// nearest integer lies above the value, the floor is one less: in that sum's range (2⁵² to
+/// 2⁵³) consecutive integers are consecutive bit patterns, so one less in the bits.
+#[inline]
+fn floor_in_bits(v: f64) -> i32 {
+    const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
     let shifted = v + SHIFT;
     let above = u64::from(shifted - SHIFT > v);
     (shifted.to_bits() - above) as u32 as i32
 }
 
+/// Whether [`cells_into`] must clamp for the points (`xs`, `ys`) turned by any angle and moved
+/// to `center`'s position (its heading finite, as every rotation around it is), on a raster at
+/// `origin` with cells of `cell` metres: false where every point is finite and every cell lies
+/// within half of [`CELL_CLAMP`] (a point turned keeps each coordinate within `|x| + |y|`;
+/// the bound is widened far beyond any rounding), where the clamp and the check for NaN
+/// change nothing.
+pub(super) fn must_clamp(xs: &[f64], ys: &[f64], center: &Pose2, origin: Vec2, cell: f64) -> bool {
+    let t = center.translation();
+    let finite = center.theta_rad.is_finite() && xs.iter().chain(ys).all(|v| v.is_finite());
+    let spread = xs
+        .iter()
+        .zip(ys)
+        .map(|(x, y)| x.abs() + y.abs())
+        .fold(0.0, f64::max);
+    let within = |t: f64, o: f64| {
+        let reach_m = spread + (t - o).abs() + 1e-6 * (1.0 + spread + t.abs() + o.abs());
+        reach_m / cell <= CELL_CLAMP as f64 / 2.0
+    };
+    !(finite && cell > 0.0 && within(t.x, origin.x) && within(t.y, origin.y))
+}
+
 /// Appends to `out` the cells of the points (`xs`, `ys`, robot frame) turned by `(sin, cos)`
 /// and moved by `t`, on a raster at `origin` with cells of `cell` metres: the arithmetic of
 /// `Pose2::transform_point` then `ScoreRaster::cell_of` (the same cells), clamped to
-/// [`CELL_CLAMP`]. One pass over plain slices, which the compiler vectorizes.
+/// [`CELL_CLAMP`] where `clamped` (as [`must_clamp`] tells: without it the clamp changes
+/// nothing). One pass over plain slices, which the compiler vectorizes.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn cells_into(
     xs: &[f64],
     ys: &[f64],
@@ -471,18 +500,37 @@ pub(super) fn cells_into(
     t: Vec2,
     origin: Vec2,
     cell: f64,
+    clamped: bool,
     out: &mut Vec<(i32, i32)>,
 ) {
     let clamp = CELL_CLAMP as f64;
+    match clamped {
+        true => cells_by(xs, ys, (sin, cos), t, origin, cell, out, |v| {
+            clamped_floor(v, clamp)
+        }),
+        false => cells_by(xs, ys, (sin, cos), t, origin, cell, out, floor_in_bits),
+    }
+}
+
+/// [`cells_into`] with the floor `floor`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn cells_by(
+    xs: &[f64],
+    ys: &[f64],
+    (sin, cos): (f64, f64),
+    t: Vec2,
+    origin: Vec2,
+    cell: f64,
+    out: &mut Vec<(i32, i32)>,
+    floor: impl Fn(f64) -> i32,
+) {
     // Appended from an iterator of known length: no zeros written first only to be
     // overwritten.
     out.extend(xs.iter().zip(ys).map(|(&x, &y)| {
         let qx = cos * x - sin * y + t.x;
         let qy = sin * x + cos * y + t.y;
-        (
-            clamped_floor((qx - origin.x) / cell, clamp),
-            clamped_floor((qy - origin.y) / cell, clamp),
-        )
+        (floor((qx - origin.x) / cell), floor((qy - origin.y) / cell))
     }));
 }
 

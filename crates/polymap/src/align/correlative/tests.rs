@@ -1,4 +1,4 @@
-use super::search::{CELL_CLAMP, clamped_floor};
+use super::search::{CELL_CLAMP, clamped_floor, must_clamp};
 use super::*;
 use crate::geometry::Segment;
 
@@ -46,28 +46,43 @@ fn the_cells_of_a_rotation_are_those_of_the_raster() {
             Vec2::new(7.9 * a.cos() * (i as f64 / 97.0), 7.9 * a.sin())
         })
         .collect();
+    let near = points.clone();
+    // Points far beyond any raster, or not finite, need the clamp; the others not.
     points.extend([Vec2::new(1e12, -1e12), Vec2::new(f64::NAN, 0.5)]);
-    let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
-    let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
-    for pose in [Pose2::new(0.3, -0.2, 0.7), Pose2::new(-1.05, 2.35, -2.9)] {
-        let mut cells = vec![(7, 7)];
-        let turn = pose.theta_rad.sin_cos();
-        cells_into(
-            &xs,
-            &ys,
-            turn,
-            pose.translation(),
-            raster.origin(),
-            0.1,
-            &mut cells,
-        );
-        assert_eq!(cells.len(), points.len() + 1, "appended");
-        for (p, &(x, y)) in points.iter().zip(&cells[1..]) {
-            let (wx, wy) = raster.cell_of(pose.transform_point(*p));
-            let clamp = |v: i64| v.clamp(-CELL_CLAMP, CELL_CLAMP);
-            assert_eq!((x as i64, y as i64), (clamp(wx), clamp(wy)), "{p:?}");
+    for (points, clamps) in [(near, false), (points, true)] {
+        let xs: Vec<f64> = points.iter().map(|p| p.x).collect();
+        let ys: Vec<f64> = points.iter().map(|p| p.y).collect();
+        for pose in [Pose2::new(0.3, -0.2, 0.7), Pose2::new(-1.05, 2.35, -2.9)] {
+            let clamped = must_clamp(&xs, &ys, &pose, raster.origin(), 0.1);
+            assert_eq!(clamped, clamps);
+            // Either way where the clamp changes nothing.
+            for clamped in [clamped, true] {
+                let mut cells = vec![(7, 7)];
+                let turn = pose.theta_rad.sin_cos();
+                let (t, origin) = (pose.translation(), raster.origin());
+                cells_into(&xs, &ys, turn, t, origin, 0.1, clamped, &mut cells);
+                assert_eq!(cells.len(), points.len() + 1, "appended");
+                for (p, &(x, y)) in points.iter().zip(&cells[1..]) {
+                    let (wx, wy) = raster.cell_of(pose.transform_point(*p));
+                    let clamp = |v: i64| v.clamp(-CELL_CLAMP, CELL_CLAMP);
+                    assert_eq!((x as i64, y as i64), (clamp(wx), clamp(wy)), "{p:?}");
+                }
+            }
         }
     }
+    // A heading that is not finite, or a window far from the raster, needs the clamp.
+    let (xs, ys) = ([1.0], [2.0]);
+    let far = Pose2::new(1e9, 0.0, 0.0);
+    assert!(must_clamp(&xs, &ys, &far, raster.origin(), 0.1));
+    let turned = Pose2::new(0.0, 0.0, f64::NAN);
+    assert!(must_clamp(&xs, &ys, &turned, raster.origin(), 0.1));
+    assert!(!must_clamp(
+        &xs,
+        &ys,
+        &Pose2::IDENTITY,
+        raster.origin(),
+        0.1
+    ));
 }
 
 /// A room with a pillar and a doorway: asymmetric enough for one best pose.
