@@ -30,6 +30,9 @@ pub use crossed::{
     CROSSED_DEPTH_M, CROSSED_MAX_DEG, CROSSED_MIN_DEG, CrossedWalls, DOUBLED_WITHIN_M,
     crossed_walls, crossed_walls_of,
 };
+pub use reobserve::{
+    NAMED_MIN_THROUGH, Sightings, WALL_MIN_M, WallsSeenThrough, walls_seen_through,
+};
 use rustc_hash::FxHashMap;
 use serde::{Deserialize, Serialize};
 
@@ -75,6 +78,10 @@ pub struct ObserveParams {
     /// cross at a shallow angle ([`crossed_walls`]) is reported as drawing walls twice (a
     /// warning, and `summary.json` `map_consistency.walls_drawn_twice`); `[0, 1]`.
     pub warn_crossed_above: f64,
+    /// A run whose finished map's walls the run's scans, cast again at their final poses, saw
+    /// through more than this share as often as they saw them ([`walls_seen_through`]) is
+    /// reported as likely inconsistent, with the scans that placed the walls most seen through.
+    pub warn_walls_seen_through_above: f64,
 }
 
 impl Default for ObserveParams {
@@ -93,6 +100,7 @@ impl Default for ObserveParams {
             prune_window: 30,
             warn_seen_through_above: 0.1,
             warn_crossed_above: 0.2,
+            warn_walls_seen_through_above: 0.06,
         }
     }
 }
@@ -118,6 +126,12 @@ impl ObserveParams {
                 1e9,
             )
             .share("warn_crossed_above", self.warn_crossed_above)
+            .within(
+                "warn_walls_seen_through_above",
+                self.warn_walls_seen_through_above,
+                0.0,
+                1e9,
+            )
             .done()
     }
 
@@ -373,5 +387,6 @@ fn covered(map: &GlobalMap, id: SegmentId, c: &Crossings, p: &ObserveParams) -> 
 }
 
 pub mod crossed;
+pub mod reobserve;
 #[cfg(test)]
 mod tests;

@@ -313,9 +313,10 @@ fn verdicts_are_honest_on_dense_runs_and_every_fifth_scan() {
     );
 }
 
-/// The run-level checks (`observe.warn_seen_through_above`, `warn_crossed_above`) raise no
-/// false alarm on the clean dense runs: their scans see through their walls almost never (at
-/// most 0.003), and their walls cross another at a shallow angle almost nowhere.
+/// The run-level checks (`observe.warn_seen_through_above`, `warn_crossed_above`,
+/// `warn_walls_seen_through_above`) raise no false alarm on the clean dense runs: their scans
+/// see through their walls almost never (at most 0.003, and cast again at the final poses),
+/// and their walls cross another at a shallow angle almost nowhere.
 #[test]
 fn clean_dense_runs_are_not_called_inconsistent() {
     let p = polymap::observe::ObserveParams::default();
@@ -325,6 +326,11 @@ fn clean_dense_runs_are_not_called_inconsistent() {
         assert!(share < 0.5 * p.warn_seen_through_above, "{name}: {share}");
         let crossed = mapped.crossed.expect("a map");
         assert!(crossed < 0.5 * p.warn_crossed_above, "{name}: {crossed}");
+        let walls = mapped.walls_seen_through.expect("walls seen");
+        assert!(
+            walls < 0.5 * p.warn_walls_seen_through_above,
+            "{name}: {walls}"
+        );
     }
 }
 

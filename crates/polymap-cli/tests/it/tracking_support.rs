@@ -63,6 +63,9 @@ pub struct Mapped {
     /// The share of the map drawn twice about walls that cross
     /// ([`Mapper::crossed_walls`]).
     pub crossed: Option<f64>,
+    /// How often the run's scans, cast again at their final poses, saw through the finished
+    /// map's walls ([`Mapper::walls_seen_through`]).
+    pub walls_seen_through: Option<f64>,
     /// Wall-clock seconds of mapping.
     pub seconds: f64,
 }
@@ -210,6 +213,7 @@ pub fn map_every(run: &SimRun, every: usize, offset: usize, config: Config) -> M
         summary: mapper.tracking_summary().clone(),
         seen_through: mapper.seen_through_share(),
         crossed: mapper.crossed_walls().map(|c| c.share),
+        walls_seen_through: mapper.walls_seen_through().map(|w| w.share),
         seconds,
         kept,
     }

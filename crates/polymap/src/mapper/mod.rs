@@ -20,7 +20,7 @@ use crate::loops::{LoopCloser, LoopDiagnostics, LoopFailure, SavedNode};
 use crate::map::{GlobalMap, MapSegment, Observations};
 pub use crate::merge::MergeDiagnostics;
 use crate::merge::merge_scan;
-use crate::observe::observe_scan;
+use crate::observe::{Sightings, observe_scan};
 use crate::polyline::group_polylines;
 use crate::scan::{PreparedScan, RangeScan};
 use crate::tracking::{
@@ -185,6 +185,8 @@ pub struct Mapper {
     own: Option<OwnMotion>,
     /// ...and the trajectory [`Mapper::finish`] fused from it and `trajectory`.
     fused: Option<Vec<Pose2>>,
+    /// The rays of this run's observing scans, to check the finished map against.
+    sightings: Sightings,
 }
 
 impl Mapper {
@@ -215,6 +217,7 @@ impl Mapper {
             trajectory: Vec::new(),
             own: None,
             fused: None,
+            sightings: Sightings::default(),
             config,
         }
     }
@@ -491,7 +494,7 @@ impl Mapper {
         )
         .diagnostics;
         if enters {
-            observe_scan(
+            let observed = observe_scan(
                 &mut self.map,
                 &scan.points_in_robot,
                 &pose,
@@ -499,6 +502,10 @@ impl Mapper {
                 confirmed,
                 &self.config.observe,
             );
+            if observed.observed {
+                self.sightings
+                    .record(t, &scan.points_in_robot, &self.config.observe);
+            }
         }
         let merged = Instant::now();
         self.scans += 1;

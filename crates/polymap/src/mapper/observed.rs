@@ -2,7 +2,10 @@
 
 use super::Mapper;
 use crate::map::Observations;
-use crate::observe::{CrossedWalls, crossed_walls, prune_contradicted, seen_through_share};
+use crate::observe::{
+    CrossedWalls, WallsSeenThrough, crossed_walls, prune_contradicted, seen_through_share,
+    walls_seen_through,
+};
 
 impl Mapper {
     /// The observation record of each segment of [`Mapper::segments`], in the same order (in a
@@ -38,14 +41,25 @@ impl Mapper {
             return None;
         }
         let mut crossed = crossed_walls(&self.map)?;
-        let first = self.first_scan;
-        crossed.scans = crossed
-            .scans
-            .iter()
-            .filter(|[_, last]| *last >= first)
-            .map(|[a, b]| [a.saturating_sub(first), b - first])
-            .collect();
+        crossed.scans = in_run_numbering(&crossed.scans, self.first_scan);
         Some(crossed)
+    }
+
+    /// The finished map's walls as this run's observing scans see them at the poses of
+    /// [`Mapper::trajectory`] ([`crate::observe::walls_seen_through`]; call it after
+    /// [`Mapper::finish`]), with the scans that placed the walls most seen through in this
+    /// run's numbering; `None` where [`Mapper::seen_through_share`] is.
+    pub fn walls_seen_through(&self) -> Option<WallsSeenThrough> {
+        if self.saved.is_some() || !self.config.observe.enabled {
+            return None;
+        }
+        let trajectory = self.trajectory();
+        let first = self.first_scan;
+        let pose_of = |t: u32| trajectory.get(t.checked_sub(first)? as usize).copied();
+        let mut found =
+            walls_seen_through(&self.map, &self.sightings, pose_of, &self.config.observe)?;
+        found.scans = in_run_numbering(&found.scans, first);
+        Some(found)
     }
 
     /// Removes the segments that later scans contradict
@@ -54,4 +68,14 @@ impl Mapper {
     pub fn prune_contradicted(&mut self) -> usize {
         prune_contradicted(&mut self.map, &self.config.observe)
     }
+}
+
+/// Scan ranges in the map's numbering as this run's (which starts at the map's scan `first`):
+/// ranges wholly before the run are left out, one reaching into it starts at its first scan.
+fn in_run_numbering(ranges: &[[u32; 2]], first: u32) -> Vec<[u32; 2]> {
+    ranges
+        .iter()
+        .filter(|[_, last]| *last >= first)
+        .map(|[a, b]| [a.saturating_sub(first), b - first])
+        .collect()
 }

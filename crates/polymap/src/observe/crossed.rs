@@ -182,7 +182,7 @@ fn union_m(stretches: &mut [(f64, f64)]) -> f64 {
 }
 
 /// Sorted scan numbers as inclusive ranges, numbers at most [`RANGE_GAP_SCANS`] apart joined.
-fn ranges(sorted: &[u32]) -> Vec<[u32; 2]> {
+pub(super) fn ranges(sorted: &[u32]) -> Vec<[u32; 2]> {
     let mut out: Vec<[u32; 2]> = Vec::new();
     for &scan in sorted {
         match out.last_mut() {
