@@ -157,6 +157,7 @@ pub fn run_with(
     // Before pruning: the segments pruned are the evidence.
     let warn_above = config.observe.warn_seen_through_above;
     let crossed = record.mapper.crossed_walls();
+    let walls = record.mapper.walls_seen_through();
     record.history.map_consistency = record
         .mapper
         .seen_through_share()
@@ -169,6 +170,10 @@ pub fn run_with(
                 .as_ref()
                 .map(|c| c.scans.clone())
                 .unwrap_or_default(),
+            walls_seen_through_share: walls.as_ref().map(|w| w.share),
+            warn_walls_above: config.observe.warn_walls_seen_through_above,
+            walls_contradicted: walls.as_ref().map_or(0, |w| w.contradicted),
+            seen_through_scans: walls.as_ref().map(|w| w.scans.clone()).unwrap_or_default(),
         });
     record.history.weak_stretches = record
         .mapper
@@ -209,6 +214,11 @@ pub fn run_with(
             "crossed_scans": c.crossed_scans,
             "warn_crossed_above": c.warn_crossed_above,
             "walls_drawn_twice": c.walls_drawn_twice(),
+            "walls_seen_through_share": c.walls_seen_through_share,
+            "walls_contradicted": c.walls_contradicted,
+            "seen_through_scans": c.seen_through_scans,
+            "warn_walls_above": c.warn_walls_above,
+            "walls_seen_through": c.walls_seen_through(),
         });
     }
     if let Some(n) = pruned {

@@ -111,13 +111,35 @@ pub struct MapConsistency {
     /// inclusive ranges `[first, last]`.
     #[serde(default)]
     pub crossed_scans: Vec<[u32; 2]>,
+    /// The finished map's walls (segments of at least 1 m) as the run's observing scans see
+    /// them cast again at their final poses: Σ length × seen through / Σ length × seen
+    /// ([`polymap::observe::walls_seen_through`]); `None` in a report written before the check.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub walls_seen_through_share: Option<f64>,
+    /// The run warns above this share.
+    #[serde(default)]
+    pub warn_walls_above: f64,
+    /// How many walls those scans saw through at least half as often as they saw them.
+    #[serde(default)]
+    pub walls_contradicted: usize,
+    /// The scans (this run's numbering) that last merged into those walls, as inclusive ranges
+    /// `[first, last]`.
+    #[serde(default)]
+    pub seen_through_scans: Vec<[u32; 2]>,
 }
 
 impl MapConsistency {
     /// Whether the scans saw through the map's walls above the threshold: the map is likely
     /// inconsistent.
     pub fn likely_inconsistent(&self) -> bool {
-        self.seen_through_share > self.warn_above
+        self.seen_through_share > self.warn_above || self.walls_seen_through()
+    }
+
+    /// Whether the finished map's walls were seen through above their threshold by the run's
+    /// scans cast again at their final poses.
+    pub fn walls_seen_through(&self) -> bool {
+        self.walls_seen_through_share
+            .is_some_and(|share| share > self.warn_walls_above)
     }
 
     /// Whether more of the map's length than the threshold is drawn twice about walls that

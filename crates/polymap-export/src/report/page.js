@@ -326,6 +326,17 @@
             ' (above ' + fmt(100 * mc.warn_crossed_above, 3) +
             ' %: walls drawn twice, turned apart)' : '')]);
       }
+      if (mc.walls_seen_through_share !== undefined && mc.walls_seen_through_share !== null) {
+        var over = mc.walls_seen_through_share > mc.warn_walls_above;
+        var named = (mc.seen_through_scans || []).slice(0, 5).map(function (r) {
+          return r[0] === r[1] ? String(r[0]) : r[0] + '-' + r[1];
+        }).join(', ');
+        rows.push(['walls of 1 m or more seen through, all scans at their final poses',
+          fmt(100 * mc.walls_seen_through_share, 3) + ' %' + (over ?
+            ' (above ' + fmt(100 * mc.warn_walls_above, 3) +
+            ' %: the map is likely inconsistent' + (named ? '; placed by scans ' + named : '') +
+            ')' : '')]);
+      }
     }
     var table = $('counts');
     table.textContent = '';

@@ -197,6 +197,10 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
             crossed_share: Some(0.5),
             warn_crossed_above: 0.2,
             crossed_scans: vec![[3, 9]],
+            walls_seen_through_share: Some(0.08),
+            warn_walls_above: 0.06,
+            walls_contradicted: 3,
+            seen_through_scans: vec![[40, 52]],
         }),
         ..data
     };
@@ -205,7 +209,9 @@ fn lost_scans_become_ranges_and_gaps_marks_on_the_time_line() {
             .expect("renders");
     assert!(html.contains(
         "\"map_consistency\":{\"seen_through_share\":0.25,\"warn_above\":0.1,\
-         \"crossed_share\":0.5,\"warn_crossed_above\":0.2,\"crossed_scans\":[[3,9]]}"
+         \"crossed_share\":0.5,\"warn_crossed_above\":0.2,\"crossed_scans\":[[3,9]],\
+         \"walls_seen_through_share\":0.08,\"warn_walls_above\":0.06,\
+         \"walls_contradicted\":3,\"seen_through_scans\":[[40,52]]}"
     ));
 }
 
@@ -218,6 +224,7 @@ fn a_map_consistency_without_the_crossing_check_reads_as_not_checked() {
     assert_eq!(old.crossed_share, None);
     assert!(old.likely_inconsistent());
     assert!(!old.walls_drawn_twice());
+    assert!(!old.walls_seen_through());
     let written = serde_json::to_string(&old).unwrap();
     assert!(!written.contains("crossed_share"), "{written}");
 }
