@@ -116,6 +116,9 @@ fn resume_continues_a_map_in_its_frame_and_numbers_scans_on() {
     assert_eq!(map["version"], 2);
     assert_eq!(map["scans"], 1696);
     assert_eq!(map["frame"], json(&out_a.join("map.json"))["frame"]);
+    // The resumed run's scans, numbered on from the saved map's, check the finished map.
+    let walls = &summary["map_consistency"]["walls_seen_through_share"];
+    assert!(walls.as_f64().is_some_and(|w| w < 0.06), "{walls}");
     // The new log's poses, in the saved map's frame: A then B is one trajectory.
     let whole = dir.path().join("whole.tum");
     let mut lines = tum_lines(&out_a.join("trajectory.tum"));

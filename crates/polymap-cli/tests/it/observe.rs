@@ -108,6 +108,10 @@ fn a_consistent_map_with_a_ghost_is_not_called_inconsistent_and_the_warning_says
     assert!(walls > 0.0 && walls < 0.06, "{c}");
     assert_eq!(c["walls_seen_through"].as_bool(), Some(false));
     assert!(c["walls_contradicted"].as_u64() > Some(0), "{c}");
+    assert!(
+        !c["seen_through_scans"].as_array().unwrap().is_empty(),
+        "{c}"
+    );
     // Above a threshold it exceeds, the run says so and flags it.
     let config = dir.path().join("strict.toml");
     std::fs::write(&config, "[observe]\nwarn_seen_through_above = 0.0\n").unwrap();

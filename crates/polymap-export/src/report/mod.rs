@@ -90,18 +90,20 @@ pub struct ReportData {
 pub const MAX_GAP_MARKS: usize = 1000;
 
 /// The run's checks of the map as a whole: how often its scans saw through the map's walls for
-/// each time they saw one ([`polymap::observe::seen_through_share`]), and how much of its length
-/// is drawn twice about walls that cross at a shallow angle ([`polymap::observe::crossed_walls`]),
-/// each with the share above which the run warns (`[observe] warn_seen_through_above`,
-/// `warn_crossed_above`). Plain ratios.
+/// each time they saw one ([`polymap::observe::seen_through_share`]), how much of its length is
+/// drawn twice about walls that cross at a shallow angle ([`polymap::observe::crossed_walls`]),
+/// and how often every second observing scan, cast again at its final pose, saw through the
+/// finished map's walls ([`polymap::observe::walls_seen_through`]), each with the share above
+/// which the run warns (`[observe] warn_seen_through_above`, `warn_crossed_above`,
+/// `warn_walls_seen_through_above`). Plain ratios.
 #[derive(Debug, Clone, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct MapConsistency {
     /// Σ length × seen through / Σ length × seen over the map's segments.
     pub seen_through_share: f64,
     /// The run warns above this share.
     pub warn_above: f64,
-    /// The share of the map's length drawn twice about walls that cross; `None` in a report
-    /// written before the check.
+    /// The share of the map's length drawn twice about walls that cross; `None` when the
+    /// report has no such field.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub crossed_share: Option<f64>,
     /// The run warns above this share.
@@ -113,7 +115,7 @@ pub struct MapConsistency {
     pub crossed_scans: Vec<[u32; 2]>,
     /// The finished map's walls (segments of at least 1 m) as the run's observing scans see
     /// them cast again at their final poses: Σ length × seen through / Σ length × seen
-    /// ([`polymap::observe::walls_seen_through`]); `None` in a report written before the check.
+    /// ([`polymap::observe::walls_seen_through`]); `None` when the report has no such field.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub walls_seen_through_share: Option<f64>,
     /// The run warns above this share.
@@ -129,7 +131,8 @@ pub struct MapConsistency {
 }
 
 impl MapConsistency {
-    /// Whether the scans saw through the map's walls above the threshold: the map is likely
+    /// Whether the scans saw through the map's walls above the threshold, as they came or cast
+    /// again at their final poses ([`MapConsistency::walls_seen_through`]): the map is likely
     /// inconsistent.
     pub fn likely_inconsistent(&self) -> bool {
         self.seen_through_share > self.warn_above || self.walls_seen_through()

@@ -331,7 +331,7 @@
         var named = (mc.seen_through_scans || []).slice(0, 5).map(function (r) {
           return r[0] === r[1] ? String(r[0]) : r[0] + '-' + r[1];
         }).join(', ');
-        rows.push(['walls of 1 m or more seen through, all scans at their final poses',
+        rows.push(['walls of 1 m or more seen through, every second observing scan at its final pose',
           fmt(100 * mc.walls_seen_through_share, 3) + ' %' + (over ?
             ' (above ' + fmt(100 * mc.warn_walls_above, 3) +
             ' %: the map is likely inconsistent' + (named ? '; placed by scans ' + named : '') +

@@ -251,6 +251,8 @@ impl Mapper {
         if role == MapRole::Localize {
             let given = observations.clone().unwrap_or_default();
             mapper.saved = Some((prior.segments.clone(), given));
+            // A localize run's map is the saved one, not checked.
+            mapper.sightings = Sightings::off();
             if c.mapper.localize_own_motion_s > 0.0 {
                 mapper.own = Some(OwnMotion::new(c));
             }

@@ -3,8 +3,8 @@
 use super::Mapper;
 use crate::map::Observations;
 use crate::observe::{
-    CrossedWalls, WallsSeenThrough, crossed_walls, prune_contradicted, seen_through_share,
-    walls_seen_through,
+    CrossedWalls, Sightings, WallsSeenThrough, crossed_walls, prune_contradicted,
+    seen_through_share, walls_seen_through,
 };
 
 impl Mapper {
@@ -60,6 +60,13 @@ impl Mapper {
             walls_seen_through(&self.map, &self.sightings, pose_of, &self.config.observe)?;
         found.scans = in_run_numbering(&found.scans, first);
         Some(found)
+    }
+
+    /// This mapper with no rays kept for [`Mapper::walls_seen_through`]: for the mappers whose
+    /// map is not checked (a run's scans tracked on a map of their own).
+    pub(super) fn without_sightings(mut self) -> Self {
+        self.sightings = Sightings::off();
+        self
     }
 
     /// Removes the segments that later scans contradict

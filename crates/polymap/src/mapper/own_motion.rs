@@ -51,7 +51,7 @@ impl OwnMotion {
         let mut config = config.clone();
         config.loops.enabled = false;
         OwnMotion {
-            mapper: Box::new(Mapper::new(config)),
+            mapper: Box::new(Mapper::new(config).without_sightings()),
             stamps_s: Vec::new(),
             placed: Vec::new(),
             own_lost: Vec::new(),

@@ -84,7 +84,7 @@ impl Mapper {
         local_config.loops.enabled = false;
         let local = self
             .local
-            .get_or_insert_with(|| Box::new(Mapper::new(local_config)));
+            .get_or_insert_with(|| Box::new(Mapper::new(local_config).without_sightings()));
         let local_pose = local.push_prepared(scan.clone()).map_from_robot;
         let robot_from_local = local_pose.inverse();
         let own: Vec<Segment> = local.map().iter().map(|(_, s)| s.segment).collect();
