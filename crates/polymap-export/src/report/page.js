@@ -328,7 +328,10 @@
       }
       if (mc.walls_seen_through_share !== undefined && mc.walls_seen_through_share !== null) {
         var over = mc.walls_seen_through_share > mc.warn_walls_above;
-        var named = (mc.seen_through_scans || []).slice(0, 5).map(function (r) {
+        // The five longest ranges, in scan order, as the run's warning names them.
+        var named = (mc.seen_through_scans || []).slice().sort(function (a, b) {
+          return (b[1] - b[0]) - (a[1] - a[0]) || a[0] - b[0];
+        }).slice(0, 5).sort(function (a, b) { return a[0] - b[0]; }).map(function (r) {
           return r[0] === r[1] ? String(r[0]) : r[0] + '-' + r[1];
         }).join(', ');
         rows.push(['walls of 1 m or more seen through, every second observing scan at its final pose',
