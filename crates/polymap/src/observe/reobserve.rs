@@ -254,18 +254,24 @@ mod tests {
             .collect()
     }
 
+    /// The room with a wall at x = 2 from `(end.x, -end.y)` to `end`, placed by scan 90, and the
+    /// room's returns from its middle offered 16 times (scans 0-15).
+    fn room_seen_from_its_middle_with(end: Vec2) -> (GlobalMap, Sightings) {
+        let mut segments = room();
+        segments.push((Segment::new(Vec2::new(end.x, -end.y), end), 90));
+        let mut sightings = Sightings::default();
+        for t in 0..16 {
+            sightings.record(t, &room_points(), &ObserveParams::default());
+        }
+        (map_of(&segments), sightings)
+    }
+
     /// A wall placed across a room that scans before it saw empty is seen through by each of
     /// them and named by the scan that placed it; the room's own walls are seen.
     #[test]
     fn a_wall_across_the_free_space_of_earlier_scans_is_seen_through_and_named() {
-        let mut segments = room();
-        segments.push((Segment::new(Vec2::new(2.0, -3.0), Vec2::new(2.0, 3.0)), 90));
-        let map = map_of(&segments);
-        let mut sightings = Sightings::default();
+        let (map, sightings) = room_seen_from_its_middle_with(Vec2::new(2.0, 3.0));
         let params = ObserveParams::default();
-        for t in 0..16 {
-            sightings.record(t, &room_points(), &params);
-        }
         let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), &params)
             .expect("walls seen");
         assert_eq!(found.contradicted, 1);
@@ -278,14 +284,8 @@ mod tests {
     /// walls shorter than [`WALL_MIN_M`] do not count.
     #[test]
     fn a_room_seen_from_inside_is_consistent() {
-        let mut segments = room();
-        segments.push((Segment::new(Vec2::new(2.0, -0.4), Vec2::new(2.0, 0.4)), 90));
-        let map = map_of(&segments);
-        let mut sightings = Sightings::default();
+        let (map, sightings) = room_seen_from_its_middle_with(Vec2::new(2.0, 0.4));
         let params = ObserveParams::default();
-        for t in 0..16 {
-            sightings.record(t, &room_points(), &params);
-        }
         let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), &params)
             .expect("walls seen");
         assert_eq!((found.share, found.contradicted), (0.0, 0));
