@@ -205,9 +205,7 @@ impl Bins {
             None => Some(None),
         }
     }
-}
 
-impl Bins {
     /// The reach of a [`TargetCertificate`]'s look, metres: the gate's largest reach
     /// ([`LOOSE_GATE_M`]) with room for a point to move between ICP's iterations, and under
     /// half a cell ([`Bins::CELL_M`]), so that the look still visits at most four cells.
