@@ -47,8 +47,9 @@ impl Mapper {
 
     /// The finished map's walls as this run's observing scans see them at the poses of
     /// [`Mapper::trajectory`] ([`crate::observe::walls_seen_through`]; call it after
-    /// [`Mapper::finish`]), with the scans that placed the walls most seen through in this
-    /// run's numbering; `None` where [`Mapper::seen_through_share`] is.
+    /// [`Mapper::finish`]), over the walls this run placed or merged into (a `--resume`d map's
+    /// older walls are left out), with the scans that placed the walls most seen through in
+    /// this run's numbering; `None` where [`Mapper::seen_through_share`] is.
     pub fn walls_seen_through(&self) -> Option<WallsSeenThrough> {
         if self.saved.is_some() || !self.config.observe.enabled {
             return None;
@@ -56,8 +57,13 @@ impl Mapper {
         let trajectory = self.trajectory();
         let first = self.first_scan;
         let pose_of = |t: u32| trajectory.get(t.checked_sub(first)? as usize).copied();
-        let mut found =
-            walls_seen_through(&self.map, &self.sightings, pose_of, &self.config.observe)?;
+        let mut found = walls_seen_through(
+            &self.map,
+            &self.sightings,
+            pose_of,
+            first,
+            &self.config.observe,
+        )?;
         found.scans = in_run_numbering(&found.scans, first);
         Some(found)
     }

@@ -160,11 +160,17 @@ pub struct WallsSeenThrough {
 /// Casts every sighting's rays at its scan's pose (`pose_of`, map frame; sightings without a
 /// pose are skipped) against `map`, counting per segment the sightings that saw it and those
 /// that saw through it under `params` (see the module docs of [`crate::observe`]); `None` when
-/// no wall of at least [`WALL_MIN_M`] was seen.
+/// no wall of at least [`WALL_MIN_M`] was seen or seen through.
+///
+/// Only walls whose `born_scan` is at least `from_scan` count: a run that continues a saved
+/// map answers for the walls it placed or merged into, not for the earlier runs' walls it
+/// finds gone or sees a few centimetres off. A wall seen through counts as seen at least
+/// once: the scan that placed it saw it, kept or not.
 pub fn walls_seen_through(
     map: &GlobalMap,
     sightings: &Sightings,
     pose_of: impl Fn(u32) -> Option<Pose2>,
+    from_scan: u32,
     params: &ObserveParams,
 ) -> Option<WallsSeenThrough> {
     let mut counts: FxHashMap<SegmentId, (u32, u32)> = FxHashMap::default();
@@ -192,9 +198,11 @@ pub fn walls_seen_through(
     let mut born = Vec::new();
     for (id, s) in map.iter() {
         let length = s.segment.length();
-        let Some(&(seen, through)) = counts.get(&id).filter(|_| length >= WALL_MIN_M) else {
+        let counted = length >= WALL_MIN_M && s.born_scan >= from_scan;
+        let Some(&(seen, through)) = counts.get(&id).filter(|_| counted) else {
             continue;
         };
+        let seen = if through > 0 { seen.max(1) } else { seen };
         seen_m += length * f64::from(seen);
         through_m += length * f64::from(through);
         if through >= NAMED_MIN_THROUGH && 2 * through >= seen {
@@ -272,12 +280,30 @@ mod tests {
     fn a_wall_across_the_free_space_of_earlier_scans_is_seen_through_and_named() {
         let (map, sightings) = room_seen_from_its_middle_with(Vec2::new(2.0, 3.0));
         let params = ObserveParams::default();
-        let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), &params)
+        let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), 0, &params)
             .expect("walls seen");
         assert_eq!(found.contradicted, 1);
         assert_eq!(found.scans, vec![[90, 90]]);
-        // Every other of 16 scans kept: 6 m seen through 8 times over 4 × 10 m seen 8 times.
-        assert!((found.share - 6.0 / 40.0).abs() < 1e-9, "{}", found.share);
+        // Every other of 16 scans kept: 6 m seen through 8 times over 4 × 10 m seen 8 times
+        // and the 6 m seen once, by the scan that placed it.
+        assert!((found.share - 48.0 / 326.0).abs() < 1e-9, "{}", found.share);
+    }
+
+    /// A run that continues the map from scan 50 answers only for the wall it placed (scan
+    /// 90): the room's walls are left out, and the wall that its kept sightings only saw
+    /// through still counts as seen once, by the scan that placed it.
+    #[test]
+    fn a_continued_run_counts_the_walls_it_placed_each_seen_at_least_once() {
+        let (map, sightings) = room_seen_from_its_middle_with(Vec2::new(2.0, 3.0));
+        let params = ObserveParams::default();
+        let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), 50, &params)
+            .expect("the placed wall seen through");
+        assert_eq!((found.contradicted, found.scans), (1, vec![[90, 90]]));
+        // 6 m seen through 8 times over 6 m seen once.
+        assert!((found.share - 8.0).abs() < 1e-9, "{}", found.share);
+        assert!(
+            walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), 91, &params).is_none()
+        );
     }
 
     /// The same room without the wall: nothing seen through; sightings without a pose and
@@ -286,10 +312,10 @@ mod tests {
     fn a_room_seen_from_inside_is_consistent() {
         let (map, sightings) = room_seen_from_its_middle_with(Vec2::new(2.0, 0.4));
         let params = ObserveParams::default();
-        let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), &params)
+        let found = walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), 0, &params)
             .expect("walls seen");
         assert_eq!((found.share, found.contradicted), (0.0, 0));
-        assert!(walls_seen_through(&map, &sightings, |_| None, &params).is_none());
+        assert!(walls_seen_through(&map, &sightings, |_| None, 0, &params).is_none());
     }
 
     /// Every other observing scan is kept; a sighting past the ray budget first drops every
@@ -352,7 +378,7 @@ mod tests {
                 sightings.record(KEEP_EVERY * k as u32, points, &params);
                 sightings.record(KEEP_EVERY * k as u32 + 1, points, &params);
             }
-            walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), &params)
+            walls_seen_through(&map, &sightings, |_| Some(Pose2::IDENTITY), 0, &params)
                 .expect("walls seen")
         };
         let room = room_points();
