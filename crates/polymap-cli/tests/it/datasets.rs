@@ -140,14 +140,15 @@ fn fr079_with_a_short_laser_names_where_it_stalled_against_the_odometry() {
     );
 }
 
-/// Intel every 5th scan, phase 1, under a nuisance variant of the thinning (0.053 m between
-/// points, 35 rotation search points) ends 0.44 m off: its last stretch (kept scans 2430-2700,
-/// doubtful on one scan in five) is tracked turned, and its walls are merged across the rooms
-/// and corridors the robot passed long before, where no later scan is there to see through
-/// them (the running seen-through share 4.8 %, no warning). Cast again at their final poses,
-/// the run's scans see through the finished map's walls 8.4 % as often as they see them: the
-/// run must warn and name scans of that stretch. The same phase under the default thinning
-/// (0.043 m off) must not (1.5 %). Two runs, release build: about 4 s.
+/// Intel every 5th scan, phase 3, under a nuisance variant of the thinning (0.054 m between
+/// points, 44 rotation search points) ends 0.15 m off, all of it in the relations that reach
+/// its last stretch (kept scans from 2400 on: 1.37 m over 4 relations, 0.01-0.07 m over the
+/// others), whose walls stand where the scans before saw free space and no later scan is there
+/// to see through them (the running seen-through share 3.2 %); no other warning names a place.
+/// Cast again at their final poses, the run's scans see through the finished map's walls 6.7 %
+/// as often as they see them: the run must warn and name scans of that stretch. The same phase
+/// under the default thinning (0.043 m off) must not (1.4 %). Two runs, release build: about
+/// 4 s.
 #[test]
 fn intel_every_fifth_scan_names_walls_placed_late_across_rooms_passed_before() {
     let Some(dir) = datasets() else {
@@ -159,11 +160,11 @@ fn intel_every_fifth_scan_names_walls_placed_late_across_rooms_passed_before() {
     let variant = out.path().join("variant.toml");
     std::fs::write(
         &variant,
-        "[align]\npoint_spacing_m = 0.053\nrotation_search_points = 35\n",
+        "[align]\npoint_spacing_m = 0.054\nrotation_search_points = 44\n",
     )
     .unwrap();
     let warning = "cast again at their final poses";
-    let every = ["--every", "5", "--every-offset", "1"];
+    let every = ["--every", "5", "--every-offset", "3"];
     let run = |name: &str, extra: &[&str]| {
         let args: Vec<&str> = every.iter().chain(extra).copied().collect();
         map_with_summary(&log, &out.path().join(name), &args)
@@ -175,7 +176,7 @@ fn intel_every_fifth_scan_names_walls_placed_late_across_rooms_passed_before() {
     let named = consistency["seen_through_scans"].as_array().unwrap();
     let late = named.iter().any(|r| {
         let last = r[1].as_u64().unwrap();
-        (2540..=2700).contains(&last)
+        (2540..=2730).contains(&last)
     });
     assert!(late, "{named:?}");
     let (stderr, summary) = run("default", &[]);

@@ -49,11 +49,20 @@ impl RecentMotion {
 /// once it may do again: where the prediction and its window lose a scan (a robot that drove
 /// 3 m between scans after steps of 1 m), a step like one of these finds it
 /// ([`StepsSeen::hypotheses`]). On a dense log every step rounds to no motion, and the one
-/// hypothesis is the previous pose.
+/// hypothesis is the previous pose. Apart, the sure steps (into a scan tracked `ok` from one
+/// tracked `ok`) tell the robot's usual step for a turn ([`StepsSeen::usual_length`]).
 #[derive(Debug, Clone, Default)]
 pub struct StepsSeen {
     steps: std::collections::VecDeque<(f64, f64)>,
+    /// The steps into a scan tracked `ok` from one tracked `ok`: every direction observed well.
+    sure: std::collections::VecDeque<(f64, f64)>,
 }
+
+/// Sure steps turned within this of a step's turn tell its usual length, degrees...
+pub const USUAL_TURN_DEG: f64 = 10.0;
+
+/// ...when at least this many.
+pub const USUAL_MIN_STEPS: usize = 8;
 
 /// How many steps [`StepsSeen`] remembers: several minutes of a sparse log's travel, so that a
 /// long step seen early still counts.
@@ -87,6 +96,41 @@ impl StepsSeen {
         while self.steps.len() > STEPS_SEEN {
             self.steps.pop_front();
         }
+    }
+
+    /// Records a step observed well in every direction (into a scan tracked `ok` from one
+    /// tracked `ok`), as [`StepsSeen::push`] does.
+    pub fn push_sure(&mut self, step: &Pose2) {
+        let length = step.translation().length();
+        let (length, turn) = (
+            if step.x_m < 0.0 { -length } else { length },
+            normalize_angle_rad(step.theta_rad),
+        );
+        if !(length.is_finite() && turn.is_finite()) {
+            return;
+        }
+        self.sure.push_back((length, turn));
+        while self.sure.len() > STEPS_SEEN {
+            self.sure.pop_front();
+        }
+    }
+
+    /// The usual length of a step turned by about `turn` (radians): the median signed length
+    /// of the sure steps turned within `USUAL_TURN_DEG` of it, with half their interquartile
+    /// range, metres; `None` with fewer than `USUAL_MIN_STEPS` such steps.
+    pub fn usual_length(&self, turn: f64) -> Option<(f64, f64)> {
+        let mut lengths: Vec<f64> = self
+            .sure
+            .iter()
+            .filter(|s| normalize_angle_rad(s.1 - turn).abs() <= USUAL_TURN_DEG.to_radians())
+            .map(|s| s.0)
+            .collect();
+        if lengths.len() < USUAL_MIN_STEPS {
+            return None;
+        }
+        lengths.sort_by(f64::total_cmp);
+        let at = |q: f64| lengths[((lengths.len() - 1) as f64 * q).round() as usize];
+        Some((at(0.5), (at(0.75) - at(0.25)) / 2.0))
     }
 
     /// Steps like the robot's own (robot frame of the pose they start from): every length
@@ -186,6 +230,27 @@ mod tests {
         let half = 22.5f64.to_radians();
         assert!(has(&h, 0.0, 0.0, 0.0) && has(&h, 1.0, 0.0, 0.0) && has(&h, 0.0, 0.0, 45.0));
         assert!(has(&h, half.cos(), half.sin(), 45.0), "{h:?}");
+    }
+
+    #[test]
+    fn the_usual_step_is_the_median_of_the_sure_steps_turned_alike() {
+        let mut seen = StepsSeen::default();
+        // Seven drives of about 1 m and eight turns on the spot: too few drives to tell.
+        for l in [0.9, 0.95, 1.0, 1.0, 1.05, 1.1, 1.2] {
+            seen.push_sure(&Pose2::new(l, 0.0, 2f64.to_radians()));
+        }
+        for _ in 0..8 {
+            seen.push_sure(&Pose2::new(0.01, 0.0, 35f64.to_radians()));
+        }
+        // `push` alone (a step after a `slowed` scan) tells nothing of the usual step.
+        seen.push(&Pose2::new(0.0, 0.0, 0.0));
+        assert_eq!(seen.usual_length(0.0), None);
+        seen.push_sure(&Pose2::new(-1.0, 0.0, -9f64.to_radians()));
+        let (usual, spread) = seen.usual_length(0.0).expect("eight drives");
+        // Sorted: -1.0, 0.9, 0.95, 1.0, 1.0, 1.05, 1.1, 1.2; quartiles 0.95 and 1.05.
+        assert!((usual - 1.0).abs() < 1e-9 && (spread - 0.05).abs() < 1e-9);
+        let (on_the_spot, _) = seen.usual_length(40f64.to_radians()).expect("eight turns");
+        assert!((on_the_spot - 0.01).abs() < 1e-9);
     }
 
     /// Whether `h` holds the step `(x, y)` metres turning `deg` degrees.

@@ -90,6 +90,8 @@ pub struct Tracker {
     loose: LoosePoints,
     recent: RecentMotion,
     steps_seen: StepsSeen,
+    /// Whether the last scan was tracked `ok` (not only `slowed`).
+    last_ok_sure: bool,
     lost_streak: u32,
     summary: TrackingSummary,
     /// Whether [`Tracker::track`] keeps each scan's ICP runs ([`TrackedScan::tries`]).
@@ -125,6 +127,7 @@ impl Tracker {
             loose: LoosePoints::default(),
             recent: RecentMotion::default(),
             steps_seen: StepsSeen::default(),
+            last_ok_sure: false,
             lost_streak: 0,
             summary: TrackingSummary::default(),
             record_tries: false,
@@ -307,7 +310,11 @@ impl Tracker {
                 .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
             if let Some(step) = step.filter(|_| observed && after_ok && !tracking.corner_won) {
                 self.steps_seen.push(&step);
+                if tracking.verdict == Verdict::Ok && self.last_ok_sure {
+                    self.steps_seen.push_sure(&step);
+                }
             }
+            self.last_ok_sure = tracking.verdict == Verdict::Ok;
             let dt_s = self.observed.step_dt_s(scan.stamp_s);
             let set_speed =
                 self.observed

@@ -188,4 +188,105 @@ impl Attempt<'_> {
             false => (moved.abs(), None),
         }
     }
+
+    /// A robot put short of its usual step on weak evidence, checked against its own steps:
+    /// where ICP observed the step along an axis only weakly (under
+    /// `tracking.verdict.slowed_below_information`; the fit's only doubt, not a poor fit), the
+    /// robot moved at least `search_above_step_m` lately, and its sure steps turned alike have
+    /// a usual length ([`StepsSeen::usual_length`], spread within [`OWN_STEP_SPREAD_SHARE`] of
+    /// it: a log thinned by travel, a robot at a steady speed) that `result`'s step falls short
+    /// of by more than twice the spread, ICP from poses along the axis (every
+    /// [`UNOBSERVED_SEED_STEP_M`] up to `UNOBSERVED_REACH_M` either side, and at the usual
+    /// length). Of those that agree across the axis, observe every direction and fit within
+    /// [`OWN_STEP_INLIER_MARGIN`] inliers (or 2 %) of the best, not beyond the usual length, the
+    /// one nearest it, where nearer than `result` by more than the spread: the fit bounds the
+    /// step, the robot's own steps choose within the bound. A step longer than usual stays (a
+    /// gap in a log's travel).
+    ///
+    /// [`StepsSeen::usual_length`]: crate::tracking::StepsSeen::usual_length
+    pub(super) fn own_step_along(&self, result: &AlignResult) -> Option<AlignResult> {
+        let input = self.input;
+        let info = result.translation_information;
+        let tracking = self.config.tracking;
+        // A robot that moved lately, whose fit's only doubt is that axis (a poor fit doubts
+        // every direction, and "agrees across" says nothing of it).
+        let reason = verdict(Some(result), self.points.len(), false, tracking).reason;
+        let on = self.checks_along_axes()
+            && info.weakest < tracking.verdict.slowed_below_information
+            && input.recent.step_m() >= tracking.search.search_above_step_m
+            && matches!(
+                reason,
+                Reason::Fit | Reason::WeaklyObserved | Reason::Degenerate
+            );
+        if !on {
+            return None;
+        }
+        let step = input.anchor.between(&result.map_from_robot);
+        let (usual, spread) = input.steps_seen.usual_length(step.theta_rad)?;
+        let spread = spread.max(OWN_STEP_MIN_SPREAD_M);
+        // A robot that drives forward at a steady step.
+        if usual < tracking.search.search_above_step_m || spread > OWN_STEP_SPREAD_SHARE * usual {
+            return None;
+        }
+        let signed = |r: &AlignResult| {
+            let s = input.anchor.between(&r.map_from_robot);
+            let l = s.translation().length();
+            if s.x_m < 0.0 { -l } else { l }
+        };
+        let off = |r: &AlignResult| (signed(r) - usual).abs();
+        // Only a step short of the usual one (a robot put stopped, slowed or backing on weak
+        // evidence): a long step may be a gap in the log's travel.
+        if signed(result) >= usual - 2.0 * spread {
+            return None;
+        }
+        let axis = info.weakest_axis();
+        let origin = result.map_from_robot;
+        let steps = (UNOBSERVED_REACH_M / UNOBSERVED_SEED_STEP_M).floor() as i32;
+        let mut seeds: Vec<f64> = (-steps..=steps)
+            .filter(|&k| k != 0)
+            .map(|k| k as f64 * UNOBSERVED_SEED_STEP_M)
+            .collect();
+        // The place on the axis where the step has the usual length, ahead in the robot's
+        // heading: the anchor's frame, its x along the heading.
+        let heading = Vec2::new(input.anchor.theta_rad.cos(), input.anchor.theta_rad.sin());
+        let ahead = axis.dot(heading);
+        if ahead.abs() > 0.5 {
+            seeds.push((usual - signed(result)) / ahead);
+        }
+        let mut tried: Vec<AlignResult> = seeds
+            .into_iter()
+            .map(|d| {
+                let m = axis * d;
+                self.run_near(Pose2::new(
+                    origin.x_m + m.x,
+                    origin.y_m + m.y,
+                    origin.theta_rad,
+                ))
+            })
+            .filter(|r| agrees_across(r, result, axis))
+            .collect();
+        tried.push(*result);
+        let best = tried.iter().map(|r| r.inliers).max()?;
+        let floor = best.saturating_sub(OWN_STEP_INLIER_MARGIN.max(best / 50));
+        let chosen = tried
+            .iter()
+            .filter(|r| r.inliers >= floor && r.weak_directions == 0)
+            .filter(|r| signed(r) <= usual + 2.0 * spread)
+            .min_by(|a, b| off(a).total_cmp(&off(b)))?;
+        (off(chosen) + spread < off(result)).then_some(*chosen)
+    }
 }
+
+/// The robot's usual step tells nothing where its sure steps spread (half their interquartile
+/// range) over more than this share of it: a robot that speeds up and slows down. A log
+/// thinned by travel (the sparse logs, one scan a metre) spreads a few per cent.
+pub const OWN_STEP_SPREAD_SHARE: f64 = 0.25;
+
+/// The spread of the usual step is taken as at least this, metres: the steps of a log thinned
+/// by travel may agree more closely than a step is tracked.
+pub const OWN_STEP_MIN_SPREAD_M: f64 = 0.05;
+
+/// Poses along the axis within this many inliers of the best (or 2 % of them, the larger) fit
+/// as well: along a corridor ICP stops at fixed points a few decimetres apart whose inliers
+/// differ by a few (ACES sparse, scan 316: 122-124 from 0.1 m back to 0.9 m ahead).
+pub const OWN_STEP_INLIER_MARGIN: usize = 2;

@@ -61,7 +61,11 @@
 //!    step is at least `tracking.search.search_above_step_m` (a fast robot that ICP, on weak
 //!    evidence, says stopped, slowed down or backing), ICP from poses
 //!    along the axis may win by the test above, under the same conditions
-//!    ([`Attempt::stopped_on_weak_evidence`], [`Attempt::checks_along_axes`]).
+//!    ([`Attempt::stopped_on_weak_evidence`], [`Attempt::checks_along_axes`]). Last, a step
+//!    observed weakly along an axis and short of the robot's usual step (the median of its
+//!    sure steps turned alike, where they spread little: a log thinned by travel) takes,
+//!    of ICP's poses along the axis that fit about as well as the best, the one nearest the
+//!    usual step, never beyond it ([`Attempt::own_step_along`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
 //!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of
@@ -457,9 +461,24 @@ impl Attempt<'_> {
     /// ICP from the starts, the recovery, the window search, and along an axis neither could
     /// observe ([`Attempt::along_unobserved`]), or along one ICP observed only weakly where
     /// the fallback ([`Attempt::prior_over_weak`]) did not win and the robot, fast lately,
-    /// seems to have stopped ([`Attempt::stopped_on_weak_evidence`]); with the search's
-    /// outcome when it ran, whether its pose won, and whether the loser fitted nearly as well.
+    /// seems to have stopped ([`Attempt::stopped_on_weak_evidence`]), then against the robot's
+    /// usual step ([`Attempt::own_step_along`]); with the search's outcome when it ran, whether
+    /// its pose (or one along the axis) won, and whether the loser fitted nearly as well.
     fn icp(&self) -> Aligned {
+        let aligned = self.icp_along();
+        if let Some(own) = aligned.result.as_ref().and_then(|r| self.own_step_along(r)) {
+            return Aligned {
+                result: Some(own),
+                search_won: true,
+                second_fit: false,
+                ..aligned
+            };
+        }
+        aligned
+    }
+
+    /// [`Attempt::icp`] before the robot's usual step is checked.
+    fn icp_along(&self) -> Aligned {
         let aligned = self.icp_and_search();
         let Some(result) = aligned.result else {
             return aligned;

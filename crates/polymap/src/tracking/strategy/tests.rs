@@ -1547,6 +1547,102 @@ fn alike_poses_along_the_axis_leave_the_step_unobserved() {
     );
 }
 
+/// Door frames every 1.2 m on both walls of a long corridor: ICP stops at every period alike.
+fn corridor_framed_every(period_m: f64) -> Vec<Segment> {
+    let mut world = vec![seg(-30.0, -1.0, 30.0, -1.0), seg(-30.0, 1.0, 30.0, 1.0)];
+    for k in -20..=20 {
+        let x = period_m * f64::from(k);
+        world.push(seg(x, 1.0, x, 0.6));
+        world.push(seg(x, -1.0, x, -0.6));
+    }
+    world
+}
+
+#[test]
+fn a_robot_put_short_of_its_usual_step_on_weak_evidence_takes_it_within_the_fits_bound() {
+    // ACES sparse, scans 315-325: a robot that drives about 1 m between scans is tracked at
+    // no motion along a corridor, where ICP stops at fixed points a few decimetres apart
+    // that fit alike. Here the frames repeat every 1.2 m, the robot's sure steps were all
+    // 1.2 m, and ICP from "no motion" stayed there, observing the step only weakly: ICP from
+    // the usual step fits as well, and wins.
+    let world = corridor_framed_every(1.2);
+    let map = map_of(&world, 0.5);
+    let truth = Pose2::new(1.2, 0.0, 0.0);
+    let scene = (&world[..], &map, truth, Pose2::IDENTITY, 0);
+    let steady = |lengths: &[f64]| {
+        let mut seen = StepsSeen::default();
+        for &l in lengths {
+            seen.push_sure(&Pose2::new(l, 0.0, 0.0));
+        }
+        seen
+    };
+    let (usual, varied) = (
+        steady(&[1.2; 8]),
+        steady(&[0.3, 0.5, 0.7, 0.9, 1.3, 1.5, 1.7, 1.9]),
+    );
+    let recent = |step_m: f64| {
+        let mut r = RecentMotion::default();
+        r.push(&Pose2::new(-step_m, 0.0, 0.0), &Pose2::IDENTITY);
+        r
+    };
+    let (fast, slow) = (recent(1.2), recent(0.1));
+    let odometry = MapperParams {
+        motion_prior: MotionPrior::Odometry,
+        ..MapperParams::default()
+    };
+    let defaults = MapperParams::default();
+    with_attempt(
+        AlignMethod::PointToSegment,
+        scene,
+        &TrackParams::default(),
+        |t| {
+            let stopped = weakly_along_x(t.run(&[], Pose2::IDENTITY), 2.0);
+            assert!(stopped.map_from_robot.x_m.abs() < 0.05, "{stopped:?}");
+            let check = |seen: &StepsSeen,
+                         recent: &RecentMotion,
+                         result: &AlignResult,
+                         starts: &MapperParams| {
+                let input = TrackInput {
+                    steps_seen: seen,
+                    recent,
+                    ..*t.input
+                };
+                let config = TrackConfig {
+                    starts,
+                    ..*t.config
+                };
+                let attempt = Attempt {
+                    input: &input,
+                    config: &config,
+                    ..*t
+                };
+                attempt.own_step_along(result)
+            };
+            let moved = check(&usual, &fast, &stopped, &defaults).expect("the usual step");
+            let e = truth.between(&moved.map_from_robot);
+            assert!(e.translation().length() < 0.02, "{e:?}");
+            // Not where the robot's steps vary, for a robot slow lately, a step observed well, a
+            // step of the usual length or longer (a gap in the log's travel), a poor fit, or with
+            // the odometry prior (its guess is evidence).
+            assert!(check(&varied, &fast, &stopped, &defaults).is_none());
+            assert!(check(&usual, &slow, &stopped, &defaults).is_none());
+            assert!(check(&usual, &fast, &weakly_along_x(stopped, 50.0), &defaults).is_none());
+            let at = |x_m: f64| AlignResult {
+                map_from_robot: Pose2::new(x_m, 0.0, 0.0),
+                ..stopped
+            };
+            assert!(check(&usual, &fast, &at(1.2), &defaults).is_none());
+            assert!(check(&usual, &fast, &at(2.4), &defaults).is_none());
+            let poor = AlignResult {
+                inliers: stopped.inliers / 4,
+                ..stopped
+            };
+            assert!(check(&usual, &fast, &poor, &defaults).is_none());
+            assert!(check(&usual, &fast, &stopped, &odometry).is_none());
+        },
+    );
+}
+
 #[test]
 fn a_distinct_pose_fitting_nearly_as_well_makes_the_scan_ambiguous() {
     let tracking = TrackParams::default();
