@@ -84,35 +84,13 @@ impl StepsSeen {
     /// Records a step (the motion from one scan's pose to the next's, robot frame of the
     /// first): its length, negative for a step backed (behind the first pose), and its turn.
     pub fn push(&mut self, step: &Pose2) {
-        let length = step.translation().length();
-        let (length, turn) = (
-            if step.x_m < 0.0 { -length } else { length },
-            normalize_angle_rad(step.theta_rad),
-        );
-        if !(length.is_finite() && turn.is_finite()) {
-            return;
-        }
-        self.steps.push_back((length, turn));
-        while self.steps.len() > STEPS_SEEN {
-            self.steps.pop_front();
-        }
+        keep_last(&mut self.steps, step);
     }
 
     /// Records a step observed well in every direction (into a scan tracked `ok` from one
     /// tracked `ok`), as [`StepsSeen::push`] does.
     pub fn push_sure(&mut self, step: &Pose2) {
-        let length = step.translation().length();
-        let (length, turn) = (
-            if step.x_m < 0.0 { -length } else { length },
-            normalize_angle_rad(step.theta_rad),
-        );
-        if !(length.is_finite() && turn.is_finite()) {
-            return;
-        }
-        self.sure.push_back((length, turn));
-        while self.sure.len() > STEPS_SEEN {
-            self.sure.pop_front();
-        }
+        keep_last(&mut self.sure, step);
     }
 
     /// The usual length of a step turned by about `turn` (radians): the median signed length
@@ -151,6 +129,23 @@ impl StepsSeen {
             }
         }
         out
+    }
+}
+
+/// Appends `step` to `steps` as its signed length (negative behind) and turn, keeping the last
+/// [`STEPS_SEEN`]; a step that is not finite is left out.
+fn keep_last(steps: &mut std::collections::VecDeque<(f64, f64)>, step: &Pose2) {
+    let length = step.translation().length();
+    let (length, turn) = (
+        if step.x_m < 0.0 { -length } else { length },
+        normalize_angle_rad(step.theta_rad),
+    );
+    if !(length.is_finite() && turn.is_finite()) {
+        return;
+    }
+    steps.push_back((length, turn));
+    while steps.len() > STEPS_SEEN {
+        steps.pop_front();
     }
 }
 
