@@ -147,7 +147,9 @@ impl Sightings {
 #[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
 pub struct WallsSeenThrough {
     /// Σ length × seen through / Σ length × seen over the map's segments of at least
-    /// [`WALL_MIN_M`], counted over every kept sighting.
+    /// [`WALL_MIN_M`] that the run placed or merged into, counted over every kept sighting, a
+    /// wall seen through counting as seen at least once; above 1 where walls are seen through
+    /// more often than seen.
     pub share: f64,
     /// How many of those walls were seen through by at least [`NAMED_MIN_THROUGH`] sightings
     /// and by at least half as many as saw them.
@@ -160,7 +162,7 @@ pub struct WallsSeenThrough {
 /// Casts every sighting's rays at its scan's pose (`pose_of`, map frame; sightings without a
 /// pose are skipped) against `map`, counting per segment the sightings that saw it and those
 /// that saw through it under `params` (see the module docs of [`crate::observe`]); `None` when
-/// no wall of at least [`WALL_MIN_M`] was seen or seen through.
+/// no wall of at least [`WALL_MIN_M`] born from `from_scan` on was seen or seen through.
 ///
 /// Only walls whose `born_scan` is at least `from_scan` count: a run that continues a saved
 /// map answers for the walls it placed or merged into, not for the earlier runs' walls it

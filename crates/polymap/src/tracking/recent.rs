@@ -49,12 +49,14 @@ impl RecentMotion {
 /// once it may do again: where the prediction and its window lose a scan (a robot that drove
 /// 3 m between scans after steps of 1 m), a step like one of these finds it
 /// ([`StepsSeen::hypotheses`]). On a dense log every step rounds to no motion, and the one
-/// hypothesis is the previous pose. Apart, the sure steps (into a scan tracked `ok` from one
-/// tracked `ok`) tell the robot's usual step for a turn ([`StepsSeen::usual_length`]).
+/// hypothesis is the previous pose. Apart, the sure steps (between two scans tracked `ok`, each
+/// observed along every translation by at least `tracking.verdict.slowed_below_information`
+/// points' worth) tell the robot's usual step for a turn ([`StepsSeen::usual_length`]).
 #[derive(Debug, Clone, Default)]
 pub struct StepsSeen {
     steps: std::collections::VecDeque<(f64, f64)>,
-    /// The steps into a scan tracked `ok` from one tracked `ok`: every direction observed well.
+    /// The sure steps: between two scans each tracked `ok` and observed well along every
+    /// translation.
     sure: std::collections::VecDeque<(f64, f64)>,
 }
 
@@ -87,8 +89,8 @@ impl StepsSeen {
         keep_last(&mut self.steps, step);
     }
 
-    /// Records a step observed well in every direction (into a scan tracked `ok` from one
-    /// tracked `ok`), as [`StepsSeen::push`] does.
+    /// Records a sure step (between two scans each tracked `ok` and observed well along every
+    /// translation; the tracker decides), as [`StepsSeen::push`] does.
     pub fn push_sure(&mut self, step: &Pose2) {
         keep_last(&mut self.sure, step);
     }

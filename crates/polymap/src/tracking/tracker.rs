@@ -90,8 +90,9 @@ pub struct Tracker {
     loose: LoosePoints,
     recent: RecentMotion,
     steps_seen: StepsSeen,
-    /// Whether the last scan was tracked `ok` (not only `slowed`).
-    last_ok_sure: bool,
+    /// Whether the last placed scan was tracked sure (`ok`, every translation observed by at
+    /// least `slowed_below_information` points' worth).
+    last_sure: bool,
     lost_streak: u32,
     summary: TrackingSummary,
     /// Whether [`Tracker::track`] keeps each scan's ICP runs ([`TrackedScan::tries`]).
@@ -127,7 +128,7 @@ impl Tracker {
             loose: LoosePoints::default(),
             recent: RecentMotion::default(),
             steps_seen: StepsSeen::default(),
-            last_ok_sure: false,
+            last_sure: false,
             lost_streak: 0,
             summary: TrackingSummary::default(),
             record_tries: false,
@@ -308,13 +309,21 @@ impl Tracker {
             let after_ok = self
                 .last_ok
                 .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
+            // Sure: tracked `ok` with every translation observed by at least
+            // `slowed_below_information` points' worth, the information under which a short
+            // step is doubted (`slowed`, and the robot's usual step checks it).
+            let sure = tracking.verdict == Verdict::Ok
+                && align.is_some_and(|a| {
+                    a.translation_information.weakest
+                        >= self.tracking.verdict.slowed_below_information
+                });
             if let Some(step) = step.filter(|_| observed && after_ok && !tracking.corner_won) {
                 self.steps_seen.push(&step);
-                if tracking.verdict == Verdict::Ok && self.last_ok_sure {
+                if sure && self.last_sure {
                     self.steps_seen.push_sure(&step);
                 }
             }
-            self.last_ok_sure = tracking.verdict == Verdict::Ok;
+            self.last_sure = sure;
             let dt_s = self.observed.step_dt_s(scan.stamp_s);
             let set_speed =
                 self.observed

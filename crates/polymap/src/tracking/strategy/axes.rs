@@ -191,15 +191,17 @@ impl Attempt<'_> {
 
     /// A robot put short of its usual step on weak evidence, checked against its own steps:
     /// where ICP observed the step along an axis only weakly (under
-    /// `tracking.verdict.slowed_below_information`; the fit's only doubt, not a poor fit), the
-    /// robot moved at least `search_above_step_m` lately, and its sure steps turned alike have
+    /// `tracking.verdict.slowed_below_information`; the fit's only doubt, not a poor fit), that
+    /// axis runs along the robot's heading ([`OWN_STEP_ALONG_HEADING`]), the robot moved at
+    /// least `search_above_step_m` lately, and its sure steps turned alike have
     /// a usual length ([`StepsSeen::usual_length`], spread within [`OWN_STEP_SPREAD_SHARE`] of
     /// it: a log thinned by travel, a robot at a steady speed) that `result`'s step falls short
     /// of by more than twice the spread, ICP from poses along the axis (every
     /// [`UNOBSERVED_SEED_STEP_M`] up to `UNOBSERVED_REACH_M` either side, and at the usual
     /// length). Of those that agree across the axis, observe every direction and fit within
-    /// [`OWN_STEP_INLIER_MARGIN`] inliers (or 2 %) of the best, not beyond the usual length, the
-    /// one nearest it, where nearer than `result` by more than the spread: the fit bounds the
+    /// [`OWN_STEP_INLIER_MARGIN`] inliers (or 2 %) of the best, not beyond the usual length by
+    /// more than twice the spread, the one nearest it, where nearer than `result` by more than
+    /// the spread: the fit bounds the
     /// step, the robot's own steps choose within the bound. A step longer than usual stays (a
     /// gap in a log's travel).
     ///
@@ -221,6 +223,14 @@ impl Attempt<'_> {
         if !on {
             return None;
         }
+        // The weak axis must run along the robot's heading: a pose moved across it is no
+        // longer or shorter a step.
+        let axis = info.weakest_axis();
+        let heading = Vec2::new(input.anchor.theta_rad.cos(), input.anchor.theta_rad.sin());
+        let ahead = axis.dot(heading);
+        if ahead.abs() < OWN_STEP_ALONG_HEADING {
+            return None;
+        }
         let step = input.anchor.between(&result.map_from_robot);
         let (usual, spread) = input.steps_seen.usual_length(step.theta_rad)?;
         let spread = spread.max(OWN_STEP_MIN_SPREAD_M);
@@ -236,23 +246,19 @@ impl Attempt<'_> {
         let off = |r: &AlignResult| (signed(r) - usual).abs();
         // Only a step short of the usual one (a robot put stopped, slowed or backing on weak
         // evidence): a long step may be a gap in the log's travel.
-        if signed(result) >= usual - 2.0 * spread {
+        // Compared so that a step that is not a number goes no further.
+        let short = signed(result) < usual - 2.0 * spread;
+        if !short {
             return None;
         }
-        let axis = info.weakest_axis();
         let origin = result.map_from_robot;
         let steps = (UNOBSERVED_REACH_M / UNOBSERVED_SEED_STEP_M).floor() as i32;
         let mut seeds: Vec<f64> = (-steps..=steps)
             .filter(|&k| k != 0)
             .map(|k| k as f64 * UNOBSERVED_SEED_STEP_M)
             .collect();
-        // The place on the axis where the step has the usual length, ahead in the robot's
-        // heading: the anchor's frame, its x along the heading.
-        let heading = Vec2::new(input.anchor.theta_rad.cos(), input.anchor.theta_rad.sin());
-        let ahead = axis.dot(heading);
-        if ahead.abs() > 0.5 {
-            seeds.push((usual - signed(result)) / ahead);
-        }
+        // The place on the axis where the step has the usual length.
+        seeds.push((usual - signed(result)) / ahead);
         let mut tried: Vec<AlignResult> = seeds
             .into_iter()
             .map(|d| {
@@ -276,6 +282,10 @@ impl Attempt<'_> {
         (off(chosen) + spread < off(result)).then_some(*chosen)
     }
 }
+
+/// The weak axis runs along the robot's heading where the cosine between them is at least
+/// this (within about 25°).
+pub const OWN_STEP_ALONG_HEADING: f64 = 0.9;
 
 /// The robot's usual step tells nothing where its sure steps spread (half their interquartile
 /// range) over more than this share of it: a robot that speeds up and slows down. A log

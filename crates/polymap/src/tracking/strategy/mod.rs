@@ -65,7 +65,7 @@
 //!    observed weakly along an axis and short of the robot's usual step (the median of its
 //!    sure steps turned alike, where they spread little: a log thinned by travel) takes,
 //!    of ICP's poses along the axis that fit about as well as the best, the one nearest the
-//!    usual step, never beyond it ([`Attempt::own_step_along`]).
+//!    usual step, not beyond it by more than twice its spread ([`Attempt::own_step_along`]).
 //! 4. **Corner hypotheses** when the pose is still `lost` or a `poor_fit`, or fits under half
 //!    the points (`tracking.corner_hypotheses`): the motion went beyond the window, or odometry slipped
 //!    farther than the window reaches. ICP from the best distinct poses that put a corner of

@@ -1547,7 +1547,8 @@ fn alike_poses_along_the_axis_leave_the_step_unobserved() {
     );
 }
 
-/// Door frames every 1.2 m on both walls of a long corridor: ICP stops at every period alike.
+/// Door frames every `period_m` on both walls of a long corridor: ICP stops at every period
+/// alike.
 fn corridor_framed_every(period_m: f64) -> Vec<Segment> {
     let mut world = vec![seg(-30.0, -1.0, 30.0, -1.0), seg(-30.0, 1.0, 30.0, 1.0)];
     for k in -20..=20 {
@@ -1639,6 +1640,36 @@ fn a_robot_put_short_of_its_usual_step_on_weak_evidence_takes_it_within_the_fits
             };
             assert!(check(&usual, &fast, &poor, &defaults).is_none());
             assert!(check(&usual, &fast, &stopped, &odometry).is_none());
+            // Nor where the pose taken fits clearly more points than the usual step's (the fit
+            // bounds the step), nor along an axis across the robot's heading (a pose moved
+            // sideways is no longer a step).
+            let fits_better = AlignResult {
+                inliers: stopped.inliers + 10,
+                ..stopped
+            };
+            assert!(check(&usual, &fast, &fits_better, &defaults).is_none());
+        },
+    );
+    // A robot turned across the corridor, weakly observed along it: poses along the corridor
+    // fit alike, but a pose moved sideways is no step of the usual length.
+    let across = Pose2::new(0.0, 0.0, std::f64::consts::FRAC_PI_2);
+    let scene = (&world[..], &map, across, across, 0);
+    with_attempt(
+        AlignMethod::PointToSegment,
+        scene,
+        &TrackParams::default(),
+        |t| {
+            let stopped = weakly_along_x(t.run(&[], across), 2.0);
+            let input = TrackInput {
+                steps_seen: &usual,
+                recent: &fast,
+                ..*t.input
+            };
+            let attempt = Attempt {
+                input: &input,
+                ..*t
+            };
+            assert!(attempt.own_step_along(&stopped).is_none());
         },
     );
 }
