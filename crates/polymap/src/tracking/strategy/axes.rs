@@ -189,21 +189,20 @@ impl Attempt<'_> {
         }
     }
 
-    /// A robot put short of its usual step on weak evidence, checked against its own steps:
-    /// where ICP observed the step along an axis only weakly (under
+    /// A robot put short of its usual step on weak evidence, checked against its own steps.
+    /// Where ICP observed the step along an axis only weakly (under
     /// `tracking.verdict.slowed_below_information`; the fit's only doubt, not a poor fit), that
     /// axis runs along the robot's heading ([`OWN_STEP_ALONG_HEADING`]), the robot moved at
-    /// least `search_above_step_m` lately, and its sure steps turned alike have
-    /// a usual length ([`StepsSeen::usual_length`], spread within [`OWN_STEP_SPREAD_SHARE`] of
-    /// it: a log thinned by travel, a robot at a steady speed) that `result`'s step falls short
-    /// of by more than twice the spread, ICP from poses along the axis (every
+    /// least `search_above_step_m` lately, and its sure steps turned alike have a usual length
+    /// ([`StepsSeen::usual_length`], spread within [`OWN_STEP_SPREAD_SHARE`] of it: a log
+    /// thinned by travel, a robot at a steady speed) that `result`'s step falls short of by
+    /// more than twice the spread: ICP from poses along the axis (every
     /// [`UNOBSERVED_SEED_STEP_M`] up to `UNOBSERVED_REACH_M` either side, and at the usual
     /// length). Of those that agree across the axis, observe every direction and fit within
     /// [`OWN_STEP_INLIER_MARGIN`] inliers (or 2 %) of the best, not beyond the usual length by
     /// more than twice the spread, the one nearest it, where nearer than `result` by more than
-    /// the spread: the fit bounds the
-    /// step, the robot's own steps choose within the bound. A step longer than usual stays (a
-    /// gap in a log's travel).
+    /// the spread: the fit bounds the step, the robot's own steps choose within the bound. A
+    /// step longer than usual stays (a gap in a log's travel).
     ///
     /// [`StepsSeen::usual_length`]: crate::tracking::StepsSeen::usual_length
     pub(super) fn own_step_along(&self, result: &AlignResult) -> Option<AlignResult> {
