@@ -293,14 +293,12 @@ pub fn warn_consistency(consistency: Option<&MapConsistency>) {
 
 /// The warning of [`MapConsistency::walls_seen_through`], naming where to look.
 fn walls_seen_through_warning(c: &MapConsistency) -> String {
-    let named = match (c.walls_contradicted, c.seen_through_scans.is_empty()) {
-        (0, _) => "no wall of 1 m or more is seen through at least 5 times and at least half as \
-                   often as it is seen: look at the picture"
+    // The walls counted are the run's own, so each one named has scans of this run.
+    let named = match c.seen_through_scans.is_empty() {
+        true => "no wall of 1 m or more is seen through at least 5 times and at least half as \
+                 often as it is seen: look at the picture"
             .to_string(),
-        (_, true) => "the walls seen through at least half as often as seen were last merged \
-                      into by the runs before this one (the map it continued)"
-            .to_string(),
-        (_, false) => format!(
+        false => format!(
             "the walls seen through at least half as often as seen were last merged into by \
              scans {}",
             longest_ranges(&c.seen_through_scans, 10)
@@ -399,8 +397,8 @@ mod tests {
         assert_eq!(longest_ranges(&[], 3), "");
     }
 
-    /// The walls-seen-through warning names the scans of the walls, the map continued when
-    /// they are all older than the run, and says so when no one wall stands out.
+    /// The walls-seen-through warning names the scans of the walls, and says so when no one
+    /// wall stands out.
     #[test]
     fn the_walls_seen_through_warning_names_where_to_look() {
         let c = MapConsistency {
@@ -417,19 +415,14 @@ mod tests {
             "{line}"
         );
         assert!(line.contains("scans 2554-2564, 2641-2654"), "{line}");
-        let older = MapConsistency {
-            seen_through_scans: Vec::new(),
-            ..c.clone()
-        };
-        let line = walls_seen_through_warning(&older);
-        assert!(line.contains("the map it continued"), "{line}");
         let spread = MapConsistency {
             walls_contradicted: 0,
-            ..older
+            seen_through_scans: Vec::new(),
+            ..c
         };
         let line = walls_seen_through_warning(&spread);
         assert!(
-            line.contains("look at the picture") && !line.contains("continued"),
+            line.contains("look at the picture") && !line.contains("merged into by scans"),
             "{line}"
         );
     }

@@ -3,6 +3,8 @@
 //! own-step hypotheses) and their points that no map segment explains ([`LoosePoints`],
 //! which the search raster and ICP match).
 
+use super::verdict::{Tracking, Verdict};
+use crate::align::AlignResult;
 use crate::geometry::{Pose2, Vec2, normalize_angle_rad};
 
 /// The largest step and turn over the last few scans.
@@ -58,6 +60,8 @@ pub struct StepsSeen {
     /// The sure steps: between two scans each tracked `ok` and observed well along every
     /// translation.
     sure: std::collections::VecDeque<(f64, f64)>,
+    /// Whether the scan of the last step taken in ([`StepsSeen::record`]) was tracked sure.
+    last_sure: bool,
 }
 
 /// Sure steps turned within this of a step's turn tell its usual length, degrees...
@@ -89,8 +93,21 @@ impl StepsSeen {
         keep_last(&mut self.steps, step);
     }
 
+    /// Takes in the step into a scan: `step` where it is one the robot was seen to make
+    /// ([`StepsSeen::push`]; `None` otherwise), and also a sure step ([`StepsSeen::push_sure`])
+    /// where this scan and the one before were both tracked `sure` ([`tracked_sure`]).
+    pub fn record(&mut self, step: Option<&Pose2>, sure: bool) {
+        if let Some(step) = step {
+            self.push(step);
+            if sure && self.last_sure {
+                self.push_sure(step);
+            }
+        }
+        self.last_sure = sure;
+    }
+
     /// Records a sure step (between two scans each tracked `ok` and observed well along every
-    /// translation; the tracker decides), as [`StepsSeen::push`] does.
+    /// translation), as [`StepsSeen::push`] does.
     pub fn push_sure(&mut self, step: &Pose2) {
         keep_last(&mut self.sure, step);
     }
@@ -132,6 +149,14 @@ impl StepsSeen {
         }
         out
     }
+}
+
+/// Whether a scan was tracked sure: `ok`, with every translation observed by at least
+/// `below` points' worth (`tracking.verdict.slowed_below_information`, the information under
+/// which a short step is doubted: `slowed`, and the robot's usual step checks it).
+pub fn tracked_sure(tracking: &Tracking, align: Option<&AlignResult>, below: f64) -> bool {
+    tracking.verdict == Verdict::Ok
+        && align.is_some_and(|a| a.translation_information.weakest >= below)
 }
 
 /// Appends `step` to `steps` as its signed length (negative behind) and turn, keeping the last

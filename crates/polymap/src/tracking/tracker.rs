@@ -9,7 +9,7 @@ use super::estimator::{
     trusted_fit_information, unknown_covariance, weakest_sigma_m,
 };
 use super::params::{MapperParams, MotionPrior, TrackParams};
-use super::recent::{LoosePoints, RecentMotion, StepsSeen};
+use super::recent::{LoosePoints, RecentMotion, StepsSeen, tracked_sure};
 use super::speed::{ObservedSpeed, reach_reference, scaled};
 use super::strategy::{TrackConfig, TrackInput, TriedPose, track_scan};
 use super::summary::{ODOMETRY_CHECK_MIN_TRAVEL_M, TrackingSummary};
@@ -90,9 +90,6 @@ pub struct Tracker {
     loose: LoosePoints,
     recent: RecentMotion,
     steps_seen: StepsSeen,
-    /// Whether the last placed scan was tracked sure (`ok`, every translation observed by at
-    /// least `slowed_below_information` points' worth).
-    last_sure: bool,
     lost_streak: u32,
     summary: TrackingSummary,
     /// Whether [`Tracker::track`] keeps each scan's ICP runs ([`TrackedScan::tries`]).
@@ -128,7 +125,6 @@ impl Tracker {
             loose: LoosePoints::default(),
             recent: RecentMotion::default(),
             steps_seen: StepsSeen::default(),
-            last_sure: false,
             lost_streak: 0,
             summary: TrackingSummary::default(),
             record_tries: false,
@@ -309,21 +305,10 @@ impl Tracker {
             let after_ok = self
                 .last_ok
                 .is_some_and(|(k, _, _)| k.saturating_add(1) == t);
-            // Sure: tracked `ok` with every translation observed by at least
-            // `slowed_below_information` points' worth, the information under which a short
-            // step is doubted (`slowed`, and the robot's usual step checks it).
-            let sure = tracking.verdict == Verdict::Ok
-                && align.is_some_and(|a| {
-                    a.translation_information.weakest
-                        >= self.tracking.verdict.slowed_below_information
-                });
-            if let Some(step) = step.filter(|_| observed && after_ok && !tracking.corner_won) {
-                self.steps_seen.push(&step);
-                if sure && self.last_sure {
-                    self.steps_seen.push_sure(&step);
-                }
-            }
-            self.last_sure = sure;
+            let seen = step.filter(|_| observed && after_ok && !tracking.corner_won);
+            let below = self.tracking.verdict.slowed_below_information;
+            let sure = tracked_sure(&tracking, align.as_ref(), below);
+            self.steps_seen.record(seen.as_ref(), sure);
             let dt_s = self.observed.step_dt_s(scan.stamp_s);
             let set_speed =
                 self.observed

@@ -211,14 +211,17 @@ impl Attempt<'_> {
         let tracking = self.config.tracking;
         // A robot that moved lately, whose fit's only doubt is that axis (a poor fit doubts
         // every direction, and "agrees across" says nothing of it).
-        let reason = verdict(Some(result), self.points.len(), false, tracking).reason;
+        let only_doubt = || {
+            let reason = verdict(Some(result), self.points.len(), false, tracking).reason;
+            matches!(
+                reason,
+                Reason::Fit | Reason::WeaklyObserved | Reason::Degenerate
+            )
+        };
         let on = self.checks_along_axes()
             && info.weakest < tracking.verdict.slowed_below_information
             && input.recent.step_m() >= tracking.search.search_above_step_m
-            && matches!(
-                reason,
-                Reason::Fit | Reason::WeaklyObserved | Reason::Degenerate
-            );
+            && only_doubt();
         if !on {
             return None;
         }
