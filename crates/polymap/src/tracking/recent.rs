@@ -95,7 +95,7 @@ impl StepsSeen {
 
     /// Takes in the step into a scan: `step` where it is one the robot was seen to make
     /// ([`StepsSeen::push`]; `None` otherwise), and also a sure step ([`StepsSeen::push_sure`])
-    /// where this scan and the one before were both tracked `sure` ([`tracked_sure`]).
+    /// where this scan and the one before were both tracked sure (`tracked_sure`: `ok`, every translation observed well).
     pub fn record(&mut self, step: Option<&Pose2>, sure: bool) {
         if let Some(step) = step {
             self.push(step);
