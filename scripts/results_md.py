@@ -29,6 +29,7 @@ SECTIONS = (
     ("throughput", "Throughput and memory", "scripts/throughput --write-results"),
     ("lifelong", "Merge, resume and localize", "scripts/lifelong --write-results"),
     ("sweep", "Step-size sweep", "scripts/sweep --write-results"),
+    ("simworlds", "Simulated worlds", "scripts/simworlds --write-results"),
     ("live", "Live: the ROS 2 node", "scripts/live --write-results"),
 )
 
@@ -49,6 +50,8 @@ made it. Run the command again to replace the section.
   localized in, against the full run.
 - **Step-size sweep** (`scripts/sweep`): every K-th scan of each benchmark log, per phase and
   under nuisance variants of the configuration.
+- **Simulated worlds** (`scripts/simworlds`): the simulator's worlds over noise seeds, lasers
+  and step sizes, against their true trajectories: the maps wrong in silence.
 - **Live: the ROS 2 node** (`scripts/live`): recordings played into `polymap ros2` over DDS:
   scan-to-pose latency at 40 Hz, scans kept at 5x real time, accuracy beside the offline run.
 """
