@@ -35,10 +35,10 @@ SECTIONS = (
 
 INTRO = """# Results
 
-The current figures of polymap on the logs in `../shared/datasets`, one section per
-measurement script. Every section is written by its script (`--write-results`), never by hand;
-each states when, at which commit and on which machine it was measured, and the command that
-made it. Run the command again to replace the section.
+The current figures of polymap on the logs in `../shared/datasets` and on the simulator's
+worlds, one section per measurement script. Every section is written by its script
+(`--write-results`), never by hand; each states when, at which commit and on which machine it
+was measured, and the command that made it. Run the command again to replace the section.
 
 - **Accuracy on the benchmark logs** (`scripts/accuracy`): relation error on Intel, ACES and
   FR079, without and with odometry, beside the published figures of other methods.
@@ -168,6 +168,17 @@ def section(key, stamp, body, explanation=(), failed=()):
         parts.append(body.strip("\n"))
     parts.extend(p.strip("\n") for p in explanation if p)
     return "\n\n".join(parts)
+
+
+def write_incomplete(key, stamp, table, failure, explanation=()):
+    """Writes section `key` for a measurement stopped by a failed run: the lines of `table`
+    done so far (none when only its header was), the failure's first line, and
+    `explanation`."""
+    body = "\n".join(table) if len(table) > 2 else ""
+    first = failure.strip().splitlines()[0] if failure.strip() else "unknown"
+    body += ("\n\n**Incomplete:** the measurement stopped when a run failed (`%s`); the rows "
+             "after the last one above are missing." % first.replace("`", "'"))
+    write_section(key, section(key, stamp, body.strip("\n"), explanation))
 
 
 def _markers(key):
